@@ -1,0 +1,92 @@
+// Micro-benchmarks of the method's kernels over cloud sizes (items = points processed).
+// Run: build/bench/pointfair_bench_kernels --benchmark_filter=... (Release build).
+#include <benchmark/benchmark.h>
+
+#include <vector>
+
+#include "pointfair/euler_step.hpp"
+#include "pointfair/kd_tree.hpp"
+#include "pointfair/neighborhoods.hpp"
+#include "pointfair/parallel.hpp"
+#include "pointfair/shapes.hpp"
+
+namespace {
+
+using namespace pointfair;
+
+// A noisy closed surface with sharp edges: area samples of the cube, 0.5% noise.
+std::vector<Vec3> noisy_cube(std::size_t n) {
+  std::vector<Vec3> points = sample_mesh(cube_mesh(), n, 7).points;
+  add_noise(points, 0.005 * bounding_box_diagonal(points), 8);
+  return points;
+}
+
+void BM_KdTreeBuild(benchmark::State& state) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  for (auto _ : state) {
+    KdTree tree(points);
+    benchmark::DoNotOptimize(&tree);
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+
+void BM_Neighborhoods(benchmark::State& state) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  for (auto _ : state) {
+    Neighborhoods nb = build_neighborhoods(points, {.k = 16});
+    benchmark::DoNotOptimize(nb.indices.data());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+
+void BM_Frames(benchmark::State& state) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  const Neighborhoods nb = build_neighborhoods(points, {.k = 16});
+  for (auto _ : state) {
+    parallel_for(points.size(), [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) benchmark::DoNotOptimize(compute_frame(points[i], nb.of(i), points));
+    });
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+
+void BM_Weingarten(benchmark::State& state) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  const Neighborhoods nb = build_neighborhoods(points, {.k = 16});
+  std::vector<Frame> frames(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) frames[i] = compute_frame(points[i], nb.of(i), points);
+  for (auto _ : state) {
+    parallel_for(points.size(), [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i)
+        benchmark::DoNotOptimize(compute_curvature(points[i], frames[i], nb.of(i), points));
+    });
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+
+void step_benchmark(benchmark::State& state, Flow flow) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  const Neighborhoods nb = build_neighborhoods(points, {.k = 16});
+  FlowParams params;
+  params.flow = flow;
+  const double lambda = resolve_lambda(points, nb, params);
+  std::vector<Vec3> next(points.size());
+  for (auto _ : state) {
+    euler_step(points, nb, {}, params, lambda, next);
+    benchmark::DoNotOptimize(next.data());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+void BM_IsotropicStep(benchmark::State& state) { step_benchmark(state, Flow::Isotropic); }
+void BM_AnisotropicStep(benchmark::State& state) { step_benchmark(state, Flow::Anisotropic); }
+
+}  // namespace
+
+BENCHMARK(BM_KdTreeBuild)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Neighborhoods)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Frames)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Weingarten)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_IsotropicStep)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_AnisotropicStep)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+BENCHMARK_MAIN();

@@ -1,0 +1,19 @@
+# Every dependency comes from Debian 12's packages (see tools/install-deps.sh).
+find_package(Eigen3 3.4 REQUIRED NO_MODULE)
+find_package(nanoflann REQUIRED)
+find_package(Threads REQUIRED)
+
+if(POINTFAIR_PARALLEL STREQUAL "TBB")
+  find_package(TBB REQUIRED)
+elseif(POINTFAIR_PARALLEL STREQUAL "OpenMP")
+  find_package(OpenMP REQUIRED)
+else()
+  message(FATAL_ERROR "POINTFAIR_PARALLEL must be TBB or OpenMP, not '${POINTFAIR_PARALLEL}'")
+endif()
+
+if(POINTFAIR_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+endif()
+if(POINTFAIR_BUILD_BENCH)
+  find_package(benchmark REQUIRED)
+endif()

@@ -1,0 +1,109 @@
+#include "pointfair/euler_step.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <limits>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
+
+namespace pointfair {
+
+void FlowParams::validate() const {
+  require(lambda >= 0.0 && std::isfinite(lambda),
+          "lambda must be >= 0 (0 = automatic), got " + std::to_string(lambda));
+  require(lambda_auto_factor > 0.0 && std::isfinite(lambda_auto_factor),
+          "lambda auto factor must be positive, got " + std::to_string(lambda_auto_factor));
+  require(tau > 0.0 && tau <= 1.0, "tau must be in (0, 1], got " + std::to_string(tau));
+  features.validate();
+  weingarten.validate();
+}
+
+PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
+                          std::span<const Vec3> points, const FlowParams& params, double lambda,
+                          bool with_curvature) {
+  PointState s;
+  if (neighbors.empty()) return s;
+  s.frame = compute_frame(p, neighbors, points);
+  const bool needs_frame = params.flow == Flow::Anisotropic || params.constrain_normal ||
+                           params.feature_gated || with_curvature;
+  if (needs_frame && !s.frame.valid) return s;
+  s.valid = true;
+
+  const bool gated = params.feature_gated && params.features.mode != FeatureMode::None;
+  if (with_curvature || gated) {
+    s.curvature = compute_curvature(p, s.frame, neighbors, points, params.weingarten);
+    const double threshold = params.features.threshold > 0.0 ? params.features.threshold : lambda;
+    s.feature = classify_feature(s.curvature, params.features.mode, params.features.quotient,
+                                 threshold);
+  }
+  Flow flow = params.flow;
+  if (gated && s.feature == FeatureClass::Smooth) flow = Flow::Isotropic;
+  s.laplacian = laplacian(p, s.frame.normal, neighbors, points, {flow, params.cutoff, lambda});
+  s.displacement = params.constrain_normal
+                       ? Vec3(params.tau * s.laplacian.dot(s.frame.normal) * s.frame.normal)
+                       : Vec3(params.tau * s.laplacian);
+  return s;
+}
+
+StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+                     std::span<const Index> rows, const FlowParams& params, double lambda,
+                     std::span<Vec3> next) {
+  const std::size_t n = neighborhoods.size();
+  require(next.size() == n, "euler_step: next must hold one position per neighbourhood row");
+  require(rows.empty() || rows.size() == n, "euler_step: rows must match the neighbourhoods");
+  require(!rows.empty() || current.size() == n, "euler_step: one neighbourhood row per point");
+  std::atomic<std::size_t> degenerate_total{0};
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    std::size_t degenerate = 0;
+    for (std::size_t r = begin; r < end; ++r) {
+      const Vec3& p = current[rows.empty() ? r : rows[r]];
+      const PointState s = evaluate_point(p, neighborhoods.of(r), current, params, lambda, false);
+      if (!s.valid) ++degenerate;
+      next[r] = p + s.displacement;
+    }
+    degenerate_total.fetch_add(degenerate, std::memory_order_relaxed);
+  }, 2048);
+  return StepStats{degenerate_total.load()};
+}
+
+double auto_lambda(std::span<const Vec3> points, const Neighborhoods& neighborhoods, double factor) {
+  const std::size_t n = neighborhoods.size();
+  if (n == 0) return 1.0;
+  const std::size_t stride = std::max<std::size_t>(1, n / 65536);
+  const std::size_t samples = (n + stride - 1) / stride;
+  std::vector<double> medians(samples, -1.0);
+  parallel_for(samples, [&](std::size_t begin, std::size_t end) {
+    std::vector<double> kappas;
+    for (std::size_t s = begin; s < end; ++s) {
+      const std::size_t i = s * stride;
+      const auto nb = neighborhoods.of(i);
+      const Frame f = compute_frame(points[i], nb, points);
+      if (!f.valid) continue;
+      kappas.clear();
+      for (const Index j : nb) kappas.push_back(std::abs(directional_curvature(f.normal, points[j] - points[i])));
+      auto mid = kappas.begin() + static_cast<std::ptrdiff_t>(kappas.size() / 2);
+      std::nth_element(kappas.begin(), mid, kappas.end());
+      medians[s] = *mid;
+    }
+  }, 256);
+  std::erase_if(medians, [](double m) { return m < 0.0; });
+  if (medians.empty()) return 1.0;
+  auto mid = medians.begin() + static_cast<std::ptrdiff_t>(medians.size() / 2);
+  std::nth_element(medians.begin(), mid, medians.end());
+  // A flat cloud has median 0: no neighbour is then cut off (the flow is isotropic).
+  const double m = *mid;
+  return m > 0.0 ? factor * m : std::numeric_limits<double>::max();
+}
+
+double resolve_lambda(std::span<const Vec3> points, const Neighborhoods& neighborhoods,
+                      const FlowParams& params) {
+  params.validate();
+  return params.lambda > 0.0 ? params.lambda
+                             : auto_lambda(points, neighborhoods, params.lambda_auto_factor);
+}
+
+}  // namespace pointfair

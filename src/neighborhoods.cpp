@@ -1,0 +1,89 @@
+#include "pointfair/neighborhoods.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <string>
+
+#include "pointfair/kd_tree.hpp"
+#include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
+
+namespace pointfair {
+
+void NeighborParams::validate() const {
+  require(k >= 1 && k <= 1024, "k must be in 1..1024, got " + std::to_string(k));
+  require(eps >= 0.0 && !std::isnan(eps), "eps must be >= 0 (0 = automatic), got " + std::to_string(eps));
+  require(eps_auto_factor > 0.0 && std::isfinite(eps_auto_factor),
+          "eps auto factor must be a positive number, got " + std::to_string(eps_auto_factor));
+}
+
+double resolve_eps(std::span<const Vec3> points, const KdTree& tree, const NeighborParams& params) {
+  params.validate();
+  if (params.eps > 0.0) return params.eps;
+  if (points.size() < 2) return std::numeric_limits<double>::infinity();
+  // Median distance to the k-th other point over an evenly strided sample of at most 65536
+  // points: deterministic and cheap even for huge clouds.
+  const std::size_t n = points.size();
+  const std::size_t stride = std::max<std::size_t>(1, n / 65536);
+  const std::size_t samples = (n + stride - 1) / stride;
+  const int want = std::min<int>(params.k + 1, static_cast<int>(n));
+  std::vector<double> kth(samples, 0.0);
+  parallel_for(samples, [&](std::size_t begin, std::size_t end) {
+    std::vector<Index> idx(static_cast<std::size_t>(want));
+    std::vector<double> d2(static_cast<std::size_t>(want));
+    for (std::size_t s = begin; s < end; ++s) {
+      const int found = tree.nearest(points[s * stride], want,
+                                     std::numeric_limits<double>::infinity(), idx.data(), d2.data());
+      kth[s] = found > 0 ? std::sqrt(d2[static_cast<std::size_t>(found - 1)]) : 0.0;
+    }
+  }, 256);
+  auto mid = kth.begin() + static_cast<std::ptrdiff_t>(samples / 2);
+  std::nth_element(kth.begin(), mid, kth.end());
+  const double spacing = *mid;
+  if (!(spacing > 0.0)) return std::numeric_limits<double>::infinity();  // all duplicates
+  return params.eps_auto_factor * spacing;
+}
+
+Neighborhoods build_neighborhoods(const KdTree& tree, std::span<const Index> queries, int k,
+                                  double eps) {
+  require(k >= 1 && k <= 1024, "k must be in 1..1024, got " + std::to_string(k));
+  require(eps > 0.0, "eps must be positive");
+  const auto points = tree.points();
+  Neighborhoods result;
+  result.stride = k;
+  result.eps = eps;
+  result.indices.assign(queries.size() * static_cast<std::size_t>(k), 0);
+  result.counts.assign(queries.size(), 0);
+  const double max_d2 = std::isinf(eps) ? eps : eps * eps;
+  const int want = k + 1;  // the point itself is among its own nearest points
+  parallel_for(queries.size(), [&](std::size_t begin, std::size_t end) {
+    std::vector<Index> idx(static_cast<std::size_t>(want));
+    std::vector<double> d2(static_cast<std::size_t>(want));
+    for (std::size_t r = begin; r < end; ++r) {
+      const Index self = queries[r];
+      const int found = tree.nearest(points[self], want, max_d2, idx.data(), d2.data());
+      Index* out = result.indices.data() + r * static_cast<std::size_t>(k);
+      int count = 0;
+      for (int j = 0; j < found && count < k; ++j) {
+        if (idx[static_cast<std::size_t>(j)] == self) continue;
+        out[count++] = idx[static_cast<std::size_t>(j)];
+      }
+      result.counts[r] = static_cast<std::uint16_t>(count);
+    }
+  }, 512);
+  return result;
+}
+
+Neighborhoods build_neighborhoods(std::span<const Vec3> points, const NeighborParams& params) {
+  params.validate();
+  require(points.size() < std::numeric_limits<Index>::max(),
+          "an in-core cloud holds fewer than 2^32-1 points; use tiles for more");
+  const KdTree tree(points);
+  const double eps = resolve_eps(points, tree, params);
+  std::vector<Index> all(points.size());
+  std::iota(all.begin(), all.end(), Index{0});
+  return build_neighborhoods(tree, all, params.k, eps);
+}
+
+}  // namespace pointfair

@@ -1,0 +1,97 @@
+#include "pointfair/parallel.hpp"
+
+#include <algorithm>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <thread>
+
+#if defined(POINTFAIR_USE_TBB)
+#include <tbb/blocked_range.h>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+#elif defined(POINTFAIR_USE_OPENMP)
+#include <omp.h>
+#endif
+
+namespace pointfair {
+namespace {
+
+int default_threads() {
+#if defined(POINTFAIR_USE_TBB)
+  return tbb::info::default_concurrency();
+#elif defined(POINTFAIR_USE_OPENMP)
+  return omp_get_num_procs();
+#else
+  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+#endif
+}
+
+struct ThreadSetting {
+  std::mutex mutex;
+  int threads = 0;  // 0: default
+#if defined(POINTFAIR_USE_TBB)
+  std::unique_ptr<tbb::global_control> control;
+#endif
+};
+
+ThreadSetting& setting() {
+  static ThreadSetting s;
+  return s;
+}
+
+}  // namespace
+
+void set_thread_count(int threads) {
+  if (threads < 0) throw std::invalid_argument("thread count must be >= 0");
+  auto& s = setting();
+  std::lock_guard lock(s.mutex);
+  s.threads = threads;
+#if defined(POINTFAIR_USE_TBB)
+  s.control.reset();
+  if (threads > 0)
+    s.control = std::make_unique<tbb::global_control>(
+        tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+#endif
+}
+
+int thread_count() {
+  auto& s = setting();
+  std::lock_guard lock(s.mutex);
+  return s.threads > 0 ? s.threads : default_threads();
+}
+
+void parallel_for(std::size_t n, const std::function<void(std::size_t, std::size_t)>& body,
+                  std::size_t grain) {
+  if (n == 0) return;
+  grain = std::max<std::size_t>(grain, 1);
+  const int threads = thread_count();
+  if (threads == 1 || n <= grain) {
+    body(0, n);
+    return;
+  }
+#if defined(POINTFAIR_USE_TBB)
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, grain),
+                    [&](const tbb::blocked_range<std::size_t>& r) { body(r.begin(), r.end()); });
+#elif defined(POINTFAIR_USE_OPENMP)
+  const std::size_t chunks = (n + grain - 1) / grain;
+  // Exceptions must not escape an OpenMP region: keep the first and rethrow after it.
+  std::exception_ptr error;
+  std::mutex error_mutex;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(threads)
+  for (std::size_t c = 0; c < chunks; ++c) {
+    try {
+      body(c * grain, std::min(n, (c + 1) * grain));
+    } catch (...) {
+      std::lock_guard lock(error_mutex);
+      if (!error) error = std::current_exception();
+    }
+  }
+  if (error) std::rethrow_exception(error);
+#else
+  body(0, n);
+#endif
+}
+
+}  // namespace pointfair

@@ -1,0 +1,110 @@
+#include "pointfair/smooth.hpp"
+
+#include <atomic>
+#include <chrono>
+
+#include <Eigen/Geometry>
+#include <string>
+
+#include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
+
+namespace pointfair {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+void SmoothParams::validate() const {
+  neighbors.validate();
+  flow.validate();
+  require(steps >= 0, "steps must be >= 0, got " + std::to_string(steps));
+  require(rebuild_interval >= 0,
+          "rebuild interval must be >= 0 (0 = never), got " + std::to_string(rebuild_interval));
+}
+
+SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
+                    const SmoothOptions& options) {
+  params.validate();
+  require(options.neighbor_reference.empty() ||
+              options.neighbor_reference.size() == positions.size(),
+          "the neighbour reference cloud must have as many points as the input (" +
+              std::to_string(options.neighbor_reference.size()) + " vs " +
+              std::to_string(positions.size()) + ")");
+  SmoothReport report;
+  auto t0 = std::chrono::steady_clock::now();
+  const std::span<const Vec3> first_source =
+      options.neighbor_reference.empty() ? std::span<const Vec3>(positions) : options.neighbor_reference;
+  report.neighborhoods = build_neighborhoods(first_source, params.neighbors);
+  report.eps = report.neighborhoods.eps;
+  report.lambda = resolve_lambda(positions, report.neighborhoods, params.flow);
+  report.seconds_neighbors += seconds_since(t0);
+
+  std::vector<Vec3> next(positions.size());
+  for (int step = 0; step < params.steps; ++step) {
+    if (params.rebuild_interval > 0 && step > 0 && step % params.rebuild_interval == 0) {
+      t0 = std::chrono::steady_clock::now();
+      report.neighborhoods = build_neighborhoods(positions, params.neighbors);
+      report.eps = report.neighborhoods.eps;
+      if (params.flow.lambda == 0.0) report.lambda = resolve_lambda(positions, report.neighborhoods, params.flow);
+      ++report.rebuilds;
+      report.seconds_neighbors += seconds_since(t0);
+    }
+    t0 = std::chrono::steady_clock::now();
+    if (params.lambda_every_step && params.flow.lambda == 0.0 && step > 0)
+      report.lambda = resolve_lambda(positions, report.neighborhoods, params.flow);
+    const StepStats stats =
+        euler_step(positions, report.neighborhoods, {}, params.flow, report.lambda, next);
+    positions.swap(next);
+    report.degenerate = stats.degenerate;
+    report.seconds_steps += seconds_since(t0);
+    ++report.steps;
+    if (options.progress) options.progress(step + 1, params.steps);
+  }
+  return report;
+}
+
+PointAttributes compute_attributes(std::span<const Vec3> positions,
+                                   const Neighborhoods& neighborhoods, const FlowParams& params,
+                                   double lambda) {
+  const std::size_t n = positions.size();
+  require(neighborhoods.size() == n, "compute_attributes: one neighbourhood row per point");
+  PointAttributes a;
+  a.normal.resize(n);
+  a.d1.resize(n);
+  a.d2.resize(n);
+  a.k1.resize(n);
+  a.k2.resize(n);
+  a.mean_curvature.resize(n);
+  a.laplacian_norm.resize(n);
+  a.feature.resize(n);
+  Eigen::AlignedBox3d box;
+  for (const auto& p : positions) box.extend(p);
+  const Vec3 centre = n > 0 ? Vec3(box.center()) : Vec3(Vec3::Zero());
+  std::atomic<std::size_t> degenerate{0};
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    std::size_t bad = 0;
+    for (std::size_t i = begin; i < end; ++i) {
+      const PointState s = evaluate_point(positions[i], neighborhoods.of(i), positions, params, lambda, true);
+      if (!s.valid) ++bad;
+      const double sign = s.frame.normal.dot(positions[i] - centre) < 0.0 ? -1.0 : 1.0;
+      a.normal[i] = sign * s.frame.normal;
+      // Flipping the normal negates the curvatures and swaps their order.
+      a.k1[i] = sign > 0 ? s.curvature.k1 : -s.curvature.k2;
+      a.k2[i] = sign > 0 ? s.curvature.k2 : -s.curvature.k1;
+      a.d1[i] = sign > 0 ? s.curvature.d1 : s.curvature.d2;
+      a.d2[i] = sign > 0 ? s.curvature.d2 : s.curvature.d1;
+      a.mean_curvature[i] = sign * s.curvature.mean;
+      a.laplacian_norm[i] = s.laplacian.norm();
+      a.feature[i] = s.feature;
+    }
+    degenerate.fetch_add(bad, std::memory_order_relaxed);
+  }, 1024);
+  a.degenerate = degenerate.load();
+  return a;
+}
+
+}  // namespace pointfair

@@ -1,0 +1,64 @@
+// pointfair curvature IN OUT: frames, principal curvatures and feature classes, no motion.
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+
+#include "commands.hpp"
+#include "run_support.hpp"
+#include "pointfair/parallel.hpp"
+#include "pointfair/version.hpp"
+
+namespace pointfair::cli {
+
+int run_curvature(const Args& args) {
+  std::string input, output_path;
+  SmoothParams params;
+  OutputOptions output;
+  ArgumentParser parser("pointfair curvature",
+                        "Estimates per point the normal, principal curvatures k1 >= k2 and "
+                        "directions d1, d2, mean curvature H, the length of the (anisotropic) mean "
+                        "curvature vector |A| and the feature class (0 smooth, 1 edge, 2 corner), "
+                        "without moving any point. Normals point away from the bounding-box "
+                        "centre; curvatures are signed with respect to them.");
+  parser.positional("IN", "Input point file (.ply, .xyz, .txt, .pts, .csv).", &input);
+  parser.positional("OUT", "Output point file with the attributes as named properties/columns.",
+                    &output_path);
+  add_method_options(parser, params);
+  add_output_options(parser, output, false);
+  if (!parser.parse(args)) return 0;
+  params.validate();
+  set_thread_count(output.threads);
+
+  const auto t0 = std::chrono::steady_clock::now();
+  io::PointTable table = read_input(input, output.quiet);
+  const Neighborhoods neighborhoods = build_neighborhoods(table.positions, params.neighbors);
+  const double lambda = resolve_lambda(table.positions, neighborhoods, params.flow);
+  const PointAttributes attributes =
+      compute_attributes(table.positions, neighborhoods, params.flow, lambda);
+  add_result_columns(table, attributes, output, true);
+  write_output(output_path, table, output, input);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  std::size_t classes[3] = {0, 0, 0};
+  for (const auto c : attributes.feature) ++classes[static_cast<int>(c)];
+  if (!output.quiet)
+    std::fprintf(stderr,
+                 "curvature: %zu points (lambda %.4g, eps %.4g): %zu smooth, %zu edge, %zu corner, "
+                 "%zu degenerate, %.2f s -> %s\n",
+                 table.size(), lambda, neighborhoods.eps, classes[0], classes[1], classes[2],
+                 attributes.degenerate, seconds, output_path.c_str());
+  if (output.json) {
+    JsonObject counts;
+    counts.add("smooth", classes[0]).add("edge", classes[1]).add("corner", classes[2]);
+    JsonObject j;
+    j.add("command", "curvature").add("version", version()).add("input", input).add("output", output_path);
+    j.add("points", table.size()).add("threads", thread_count());
+    j.add("parameters", parameters_json(params, neighborhoods.eps, lambda));
+    j.add("feature_classes", counts).add("degenerate_points", attributes.degenerate);
+    j.add("seconds", seconds);
+    std::cout << j.str() << std::endl;
+  }
+  return 0;
+}
+
+}  // namespace pointfair::cli

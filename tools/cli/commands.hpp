@@ -1,0 +1,16 @@
+#pragma once
+// The pointfair subcommands. Each takes its arguments (after the command name) and returns
+// the process exit code; errors are thrown and mapped to exit codes in main.
+#include <string>
+#include <vector>
+
+namespace pointfair::cli {
+
+using Args = std::vector<std::string>;
+
+int run_smooth(const Args& args);
+int run_curvature(const Args& args);
+int run_demo(const Args& args);
+int run_generate(const Args& args);
+
+}  // namespace pointfair::cli

@@ -1,0 +1,165 @@
+#include "method_options.hpp"
+
+#include <cmath>
+#include <limits>
+
+namespace pointfair::cli {
+namespace {
+
+template <class Enum>
+Enum parse_choice(std::string_view text, std::string_view option,
+                  std::initializer_list<std::pair<std::string_view, Enum>> choices) {
+  std::string names;
+  for (const auto& [name, value] : choices) {
+    if (text == name) return value;
+    names += names.empty() ? "" : ", ";
+    names += name;
+  }
+  throw UsageError("--" + std::string(option) + " must be one of " + names + ", got '" +
+                   std::string(text) + "'");
+}
+
+}  // namespace
+
+std::string to_string(Flow flow) { return flow == Flow::Isotropic ? "iso" : "aniso"; }
+std::string to_string(Cutoff cutoff) { return cutoff == Cutoff::Sharp ? "sharp" : "continuous"; }
+std::string to_string(FeatureMode mode) {
+  switch (mode) {
+    case FeatureMode::None: return "none";
+    case FeatureMode::EdgeQuotient: return "quotient";
+    case FeatureMode::MaxCurvature: return "maxcurv";
+  }
+  return "?";
+}
+std::string to_string(AngularWeights weights) {
+  return weights == AngularWeights::Paper ? "paper" : "uniform";
+}
+std::string to_string(ColourBy colour) {
+  switch (colour) {
+    case ColourBy::MaxCurvature: return "kmax";
+    case ColourBy::Laplacian: return "laplacian";
+    case ColourBy::None: return "none";
+  }
+  return "?";
+}
+
+void add_method_options(ArgumentParser& p, SmoothParams& s) {
+  p.value("k", "N", "Neighbours per point, the point itself not counted (1..1024). Default 16.",
+          [&s](std::string_view v) { s.neighbors.k = parse_int(v, "--k"); });
+  p.value("eps", "LENGTH|auto|inf",
+          "Radius bound of the eps-k neighbourhood, in the cloud's length unit. 'auto': "
+          "--eps-factor times the median distance to the k-th neighbour; 'inf': plain k-nearest. "
+          "Default auto.",
+          [&s](std::string_view v) {
+            if (v == "auto") s.neighbors.eps = 0.0;
+            else if (v == "inf") s.neighbors.eps = std::numeric_limits<double>::infinity();
+            else {
+              s.neighbors.eps = parse_double(v, "--eps");
+              if (!(s.neighbors.eps > 0.0)) throw UsageError("--eps must be positive, 'auto' or 'inf'");
+            }
+          });
+  p.value("eps-factor", "F", "Multiplier of the automatic eps (dimensionless). Default 2.",
+          [&s](std::string_view v) { s.neighbors.eps_auto_factor = parse_double(v, "--eps-factor"); });
+  p.value("steps", "N", "Explicit Euler steps (0 reproduces the input). Default 100.",
+          [&s](std::string_view v) { s.steps = parse_int(v, "--steps"); });
+  p.value("tau", "T",
+          "Step size tau in (0, 1], dimensionless: 1 moves a point to the mean of its kept "
+          "neighbours. Default 0.5.",
+          [&s](std::string_view v) { s.flow.tau = parse_double(v, "--tau"); });
+  p.value("flow", "iso|aniso", "Isotropic (umbrella) or anisotropic Laplacian. Default aniso.",
+          [&s](std::string_view v) {
+            s.flow.flow = parse_choice<Flow>(v, "flow", {{"iso", Flow::Isotropic}, {"aniso", Flow::Anisotropic}});
+          });
+  p.value("cutoff", "sharp|continuous",
+          "Cut-off on |kappa_ij|: drop neighbours at or above lambda, or shade them out with "
+          "lambda^2 / (lambda^2 + 10 (|kappa| - lambda)^2). Default sharp.",
+          [&s](std::string_view v) {
+            s.flow.cutoff = parse_choice<Cutoff>(v, "cutoff", {{"sharp", Cutoff::Sharp}, {"continuous", Cutoff::Continuous}});
+          });
+  p.value("lambda", "CURVATURE|auto",
+          "Cut-off threshold lambda, a curvature (1/length). 'auto': --lambda-factor times the "
+          "median over points of the median |kappa_ij| (see --lambda-schedule). Default auto.",
+          [&s](std::string_view v) {
+            if (v == "auto") s.flow.lambda = 0.0;
+            else {
+              s.flow.lambda = parse_double(v, "--lambda");
+              if (!(s.flow.lambda > 0.0)) throw UsageError("--lambda must be positive or 'auto'");
+            }
+          });
+  p.value("lambda-schedule", "once|every-step",
+          "When lambda is automatic: measure it once on the input (and after rebuilds), or again "
+          "before every step. Default every-step.",
+          [&s](std::string_view v) {
+            if (v == "once") s.lambda_every_step = false;
+            else if (v == "every-step") s.lambda_every_step = true;
+            else throw UsageError("--lambda-schedule must be one of once, every-step, got '" + std::string(v) + "'");
+          });
+  p.value("lambda-factor", "F", "Multiplier of the automatic lambda (dimensionless). Default 1.",
+          [&s](std::string_view v) { s.flow.lambda_auto_factor = parse_double(v, "--lambda-factor"); });
+  p.flag("constrain-normal",
+         "The paper's 'constrain interior': move each point along its normal only. Default off.",
+         [&s] { s.flow.constrain_normal = true; });
+  p.value("rebuild-every", "M",
+          "Rebuild the neighbourhoods from the current positions every M steps; 0 = never "
+          "(the paper's default: built once from the input). Default 0.",
+          [&s](std::string_view v) { s.rebuild_interval = parse_int(v, "--rebuild-every"); });
+  p.value("features", "none|quotient|maxcurv",
+          "Feature detection: edge quotient |k_min|/|k_max| < Q with |k_max| >= threshold, or "
+          "|k_max| >= threshold; both principal curvatures above it make a corner. Default quotient.",
+          [&s](std::string_view v) {
+            s.flow.features.mode = parse_choice<FeatureMode>(
+                v, "features", {{"none", FeatureMode::None}, {"quotient", FeatureMode::EdgeQuotient},
+                                {"maxcurv", FeatureMode::MaxCurvature}});
+          });
+  p.value("edge-quotient", "Q", "Edge quotient threshold Q in [0, 1] (dimensionless). Default 0.5.",
+          [&s](std::string_view v) { s.flow.features.quotient = parse_double(v, "--edge-quotient"); });
+  p.value("feature-threshold", "CURVATURE",
+          "Curvature threshold (1/length) of feature detection; 0 = use lambda. Default 0.",
+          [&s](std::string_view v) { s.flow.features.threshold = parse_double(v, "--feature-threshold"); });
+  p.flag("feature-gated",
+         "Apply the cut-off only at detected feature points (edges, corners); other points "
+         "flow isotropically. Default off.",
+         [&s] { s.flow.feature_gated = true; });
+  p.value("weights", "paper|uniform",
+          "Angular weights of the Weingarten map: the paper's |e|/delta density weights or "
+          "uniform. Default paper.",
+          [&s](std::string_view v) {
+            s.flow.weingarten.weights = parse_choice<AngularWeights>(
+                v, "weights", {{"paper", AngularWeights::Paper}, {"uniform", AngularWeights::Uniform}});
+          });
+  p.value("density-floor", "F",
+          "Lower clamp of the directional density delta_ij, as a fraction of c1 + c2, in (0, 1]. "
+          "Default 0.05.",
+          [&s](std::string_view v) { s.flow.weingarten.density_floor = parse_double(v, "--density-floor"); });
+}
+
+void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attributes_flag) {
+  p.value("colour-by", "kmax|laplacian|none",
+          "Colour points (red/green/blue) by the maximal principal curvature max(|k1|, |k2|) or "
+          "by |A_i|, hue 0 (minimum) to 1.5 pi (maximum); 'none' keeps the input's colours. "
+          "Default kmax.",
+          [&o](std::string_view v) {
+            o.colour_by = parse_choice<ColourBy>(
+                v, "colour-by", {{"kmax", ColourBy::MaxCurvature}, {"laplacian", ColourBy::Laplacian},
+                                 {"none", ColourBy::None}});
+          });
+  if (with_attributes_flag)
+    p.flag("attributes",
+           "Also write nx ny nz k1 k2 d1 d2 mean_curvature laplacian_norm feature_class per point.",
+           [&o] { o.attributes = true; });
+  p.value("encoding", "binary|binary-be|ascii", "PLY encoding of the output. Default binary (little endian).",
+          [&o](std::string_view v) {
+            if (v != "binary" && v != "binary-be" && v != "ascii")
+              throw UsageError("--encoding must be one of binary, binary-be, ascii, got '" + std::string(v) + "'");
+            o.encoding = std::string(v);
+          });
+  p.flag("json", "Print a machine-readable run summary (JSON) on stdout.", [&o] { o.json = true; });
+  p.flag("quiet", "No progress or summary on stderr.", [&o] { o.quiet = true; });
+  p.value("threads", "N", "Worker threads; 0 = all cores. Default 0.",
+          [&o](std::string_view v) {
+            o.threads = parse_int(v, "--threads");
+            if (o.threads < 0) throw UsageError("--threads must be >= 0");
+          });
+}
+
+}  // namespace pointfair::cli

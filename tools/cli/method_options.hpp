@@ -1,0 +1,34 @@
+#pragma once
+// The method's options, shared by the commands that run it (smooth, curvature, demo).
+#include <string>
+
+#include "arguments.hpp"
+#include "pointfair/smooth.hpp"
+
+namespace pointfair::cli {
+
+/// What to colour the output by (Section 5 of the paper).
+enum class ColourBy { MaxCurvature, Laplacian, None };
+
+struct OutputOptions {
+  ColourBy colour_by = ColourBy::MaxCurvature;
+  /// Also write normal, k1, k2, d1, d2, H, |A| and feature class per point.
+  bool attributes = false;
+  std::string encoding = "binary";
+  bool json = false;
+  bool quiet = false;
+  int threads = 0;
+};
+
+/// Registers --k, --eps, ..., --feature-gated (everything in SmoothParams).
+void add_method_options(ArgumentParser& parser, SmoothParams& params);
+/// Registers --colour-by, --attributes, --encoding, --json, --quiet, --threads.
+void add_output_options(ArgumentParser& parser, OutputOptions& output, bool with_attributes_flag);
+
+std::string to_string(Flow flow);
+std::string to_string(Cutoff cutoff);
+std::string to_string(FeatureMode mode);
+std::string to_string(AngularWeights weights);
+std::string to_string(ColourBy colour);
+
+}  // namespace pointfair::cli

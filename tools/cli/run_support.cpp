@@ -1,0 +1,116 @@
+#include "run_support.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+
+#include "pointfair/colour.hpp"
+#include "pointfair/io/point_file.hpp"
+#include "pointfair/shapes.hpp"
+
+namespace pointfair::cli {
+
+io::PointTable read_input(const std::filesystem::path& path, bool quiet) {
+  io::ReadOptions options;
+  options.on_warning = [quiet](const std::string& message) {
+    if (!quiet) std::cerr << "warning: " << message << "\n";
+  };
+  return io::read_points(path, options);
+}
+
+void write_output(const std::filesystem::path& path, const io::PointTable& table,
+                  const OutputOptions& output, const std::filesystem::path& input) {
+  io::WriteOptions options;
+  options.input = input;
+  if (output.encoding == "ascii") options.ply_encoding = io::PlyEncoding::Ascii;
+  else if (output.encoding == "binary-be") options.ply_encoding = io::PlyEncoding::BinaryBigEndian;
+  else options.ply_encoding = io::PlyEncoding::BinaryLittleEndian;
+  io::write_points(path, table, options);
+}
+
+void add_result_columns(io::PointTable& table, const PointAttributes& a,
+                        const OutputOptions& output, bool all_attributes) {
+  const std::size_t n = table.size();
+  auto column = [n](auto&& get) {
+    std::vector<double> v(n);
+    for (std::size_t i = 0; i < n; ++i) v[i] = get(i);
+    return v;
+  };
+  using io::ScalarType;
+  if (all_attributes) {
+    for (int c = 0; c < 3; ++c) {
+      const char* axis = c == 0 ? "x" : c == 1 ? "y" : "z";
+      table.set(std::string("n") + axis, ScalarType::Float32, column([&](std::size_t i) { return a.normal[i][c]; }));
+    }
+    table.set("k1", ScalarType::Float32, a.k1);
+    table.set("k2", ScalarType::Float32, a.k2);
+    for (int c = 0; c < 3; ++c) {
+      const char* axis = c == 0 ? "x" : c == 1 ? "y" : "z";
+      table.set(std::string("d1") + axis, ScalarType::Float32, column([&](std::size_t i) { return a.d1[i][c]; }));
+    }
+    for (int c = 0; c < 3; ++c) {
+      const char* axis = c == 0 ? "x" : c == 1 ? "y" : "z";
+      table.set(std::string("d2") + axis, ScalarType::Float32, column([&](std::size_t i) { return a.d2[i][c]; }));
+    }
+    table.set("mean_curvature", ScalarType::Float32, a.mean_curvature);
+    table.set("laplacian_norm", ScalarType::Float32, a.laplacian_norm);
+    table.set("feature_class", ScalarType::UInt8,
+              column([&](std::size_t i) { return static_cast<double>(a.feature[i]); }));
+  }
+  if (output.colour_by != ColourBy::None) {
+    const std::vector<double> scalar =
+        output.colour_by == ColourBy::Laplacian
+            ? a.laplacian_norm
+            : column([&](std::size_t i) { return std::max(std::abs(a.k1[i]), std::abs(a.k2[i])); });
+    const auto colours = colour_by_scalar(scalar);
+    const char* names[3] = {"red", "green", "blue"};
+    for (int c = 0; c < 3; ++c)
+      table.set(names[c], ScalarType::UInt8,
+                column([&](std::size_t i) { return static_cast<double>(colours[i][static_cast<std::size_t>(c)]); }));
+  }
+}
+
+DisplacementStats displacement_stats(std::span<const Vec3> before, std::span<const Vec3> after) {
+  DisplacementStats s;
+  const std::size_t n = std::min(before.size(), after.size());
+  s.diagonal = bounding_box_diagonal(before);
+  if (n == 0) return s;
+  std::vector<double> d(n);
+  double sum = 0, sum2 = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    d[i] = (after[i] - before[i]).norm();
+    sum += d[i];
+    sum2 += d[i] * d[i];
+  }
+  s.mean = sum / static_cast<double>(n);
+  s.rms = std::sqrt(sum2 / static_cast<double>(n));
+  std::sort(d.begin(), d.end());
+  s.median = d[n / 2];
+  s.p95 = d[std::min(n - 1, static_cast<std::size_t>(0.95 * static_cast<double>(n)))];
+  s.max = d.back();
+  return s;
+}
+
+JsonObject to_json(const DisplacementStats& s) {
+  JsonObject j;
+  j.add("mean", s.mean).add("rms", s.rms).add("median", s.median).add("p95", s.p95).add("max", s.max);
+  j.add("bbox_diagonal", s.diagonal);
+  j.add("max_over_diagonal", s.diagonal > 0 ? s.max / s.diagonal : 0.0);
+  return j;
+}
+
+JsonObject parameters_json(const SmoothParams& p, double eps, double lambda) {
+  JsonObject j;
+  j.add("k", p.neighbors.k).add("eps", eps).add("steps", p.steps).add("tau", p.flow.tau);
+  j.add("flow", to_string(p.flow.flow)).add("cutoff", to_string(p.flow.cutoff));
+  j.add("lambda", lambda).add("lambda_auto", p.flow.lambda == 0.0);
+  j.add("lambda_factor", p.flow.lambda_auto_factor).add("lambda_every_step", p.lambda_every_step);
+  j.add("constrain_normal", p.flow.constrain_normal).add("rebuild_every", p.rebuild_interval);
+  j.add("features", to_string(p.flow.features.mode)).add("edge_quotient", p.flow.features.quotient);
+  j.add("feature_threshold", p.flow.features.threshold > 0 ? p.flow.features.threshold : lambda);
+  j.add("feature_gated", p.flow.feature_gated);
+  j.add("weights", to_string(p.flow.weingarten.weights)).add("density_floor", p.flow.weingarten.density_floor);
+  return j;
+}
+
+}  // namespace pointfair::cli

@@ -1,0 +1,37 @@
+#pragma once
+// Pieces every command shares: reading the input, turning results into output columns,
+// displacement statistics, writing.
+#include <filesystem>
+#include <span>
+#include <string>
+
+#include "json_writer.hpp"
+#include "method_options.hpp"
+#include "pointfair/io/point_table.hpp"
+#include "pointfair/smooth.hpp"
+
+namespace pointfair::cli {
+
+/// Reads a point file; warnings go to stderr unless quiet.
+io::PointTable read_input(const std::filesystem::path& path, bool quiet);
+
+/// Writes `table` atomically with the chosen encoding, refusing to overwrite `input`.
+void write_output(const std::filesystem::path& path, const io::PointTable& table,
+                  const OutputOptions& output, const std::filesystem::path& input = {});
+
+/// Adds colour (red/green/blue) and, if asked, the per-point attribute columns.
+void add_result_columns(io::PointTable& table, const PointAttributes& attributes,
+                        const OutputOptions& output, bool all_attributes);
+
+/// Statistics of |after_i - before_i| (length), also relative to the bounding-box diagonal.
+struct DisplacementStats {
+  double mean = 0, rms = 0, median = 0, p95 = 0, max = 0;
+  double diagonal = 0;
+};
+DisplacementStats displacement_stats(std::span<const Vec3> before, std::span<const Vec3> after);
+JsonObject to_json(const DisplacementStats& stats);
+
+/// The method's parameters as a JSON object (with resolved eps and lambda).
+JsonObject parameters_json(const SmoothParams& params, double eps, double lambda);
+
+}  // namespace pointfair::cli

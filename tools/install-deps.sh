@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Installs what pointfair needs to build and test, from Debian 12's packages, if missing.
+# Used by tools/demo.sh, tools/test.sh and .ci/run.
+set -euo pipefail
+
+packages=(g++ cmake ninja-build pkg-config
+          libeigen3-dev libnanoflann-dev libtbb-dev libomp-dev libhdf5-dev
+          libgtest-dev libgmock-dev libbenchmark-dev)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+[ ${#missing[@]} -eq 0 ] && exit 0
+
+echo "installing: ${missing[*]}" >&2
+sudo=()
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "error: need root (or sudo) to install: ${missing[*]}" >&2; exit 1; }
+  sudo=(sudo)
+fi
+export DEBIAN_FRONTEND=noninteractive
+"${sudo[@]}" apt-get update -qq
+"${sudo[@]}" apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

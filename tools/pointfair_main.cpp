@@ -1,0 +1,77 @@
+// pointfair: denoise point clouds with the anisotropic mean curvature flow of Lange & Polthier.
+//
+// Exit codes: 0 success; 1 unexpected failure; 2 bad command line or parameter;
+// 3 input/output error (the message names the file).
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <new>
+#include <string>
+#include <vector>
+
+#include "cli/arguments.hpp"
+#include "cli/commands.hpp"
+#include "pointfair/io/point_table.hpp"
+#include "pointfair/params_error.hpp"
+#include "pointfair/version.hpp"
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: pointfair COMMAND [options] ...\n"
+    "\n"
+    "Denoises point clouds while keeping sharp edges and corners, with the anisotropic mean\n"
+    "curvature flow of Lange & Polthier, \"Anisotropic Smoothing of Point Sets\" (2005).\n"
+    "\n"
+    "commands:\n"
+    "  smooth IN OUT      run the (an)isotropic flow on a point file\n"
+    "  curvature IN OUT   write normals, principal curvatures and directions, feature classes\n"
+    "  demo               the paper's octahedron experiment on a built-in input, into ./out\n"
+    "  generate SHAPE OUT write a sampled test shape with noise\n"
+    "  version            print the version\n"
+    "\n"
+    "'pointfair COMMAND --help' lists a command's options with units and defaults.\n"
+    "Exit codes: 0 ok, 1 unexpected failure, 2 bad arguments, 3 input/output error.\n";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace pointfair;
+  if (argc < 2) {
+    std::fputs(kUsage, stderr);
+    return 2;
+  }
+  const std::string command = argv[1];
+  const cli::Args args(argv + 2, argv + argc);
+  try {
+    if (command == "smooth") return cli::run_smooth(args);
+    if (command == "curvature") return cli::run_curvature(args);
+    if (command == "demo") return cli::run_demo(args);
+    if (command == "generate") return cli::run_generate(args);
+    if (command == "version" || command == "--version") {
+      std::printf("pointfair %s\n", version());
+      return 0;
+    }
+    if (command == "help" || command == "--help" || command == "-h") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+    std::fprintf(stderr, "pointfair: unknown command '%s'\n\n%s", command.c_str(), kUsage);
+    return 2;
+  } catch (const cli::UsageError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const ParamError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  } catch (const io::IoError& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 3;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "error: out of memory\n");
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return 1;
+  }
+}
