@@ -1,0 +1,230 @@
+// End-to-end tests of the pointfair command line: it runs, reports, and fails cleanly.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include "pointfair/io/ply.hpp"
+#include "pointfair/io/point_file.hpp"
+#include "pointfair/shapes.hpp"
+
+namespace fs = std::filesystem;
+using namespace pointfair;
+
+namespace {
+
+struct RunResult {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device rd;
+    dir_ = fs::temp_directory_path() / ("pointfair_cli_" + std::to_string(rd()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  RunResult run(const std::string& args) {
+    const fs::path out = dir_ / "stdout.txt", err = dir_ / "stderr.txt";
+    const std::string command = std::string(POINTFAIR_EXE) + " " + args + " >" + out.string() +
+                                " 2>" + err.string() + " </dev/null";
+    const int status = std::system(command.c_str());
+    RunResult r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    fs::remove(out);
+    fs::remove(err);
+    return r;
+  }
+
+  // Files in the test directory other than `keep`.
+  std::vector<std::string> files_except(std::initializer_list<std::string> keep) const {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir_)) {
+      const std::string name = e.path().filename().string();
+      if (std::find(keep.begin(), keep.end(), name) == keep.end()) names.push_back(name);
+    }
+    return names;
+  }
+
+  fs::path write_cloud(const std::string& name, std::size_t n = 2000) {
+    io::PointTable t;
+    t.positions = sample_sphere(n, 1.0, 3).points;
+    add_noise(t.positions, 0.01, 4);
+    std::vector<double> intensity(n);
+    for (std::size_t i = 0; i < n; ++i) intensity[i] = static_cast<double>(i % 251);
+    t.set("intensity", io::ScalarType::UInt16, intensity);
+    const fs::path p = dir_ / name;
+    io::write_points(p, t);
+    return p;
+  }
+
+  fs::path write_bytes(const std::string& name, const std::string& bytes) {
+    const fs::path p = dir_ / name;
+    std::ofstream(p, std::ios::binary) << bytes;
+    return p;
+  }
+
+  fs::path dir_;
+};
+
+// One line on stderr, naming `file`, and nothing written at `output`.
+void expect_clean_failure(const RunResult& r, int code, const fs::path& file, const fs::path& output) {
+  EXPECT_EQ(r.exit_code, code) << r.err;
+  EXPECT_NE(r.err.find(file.filename().string()), std::string::npos) << r.err;
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "expected one line, got: " << r.err;
+  EXPECT_FALSE(fs::exists(output));
+}
+
+}  // namespace
+
+TEST_F(CliTest, SmoothWritesResultAndJsonSummary) {
+  const fs::path in = write_cloud("in.ply");
+  const fs::path out = dir_ / "out.ply";
+  const RunResult r = run("smooth " + in.string() + " " + out.string() + " --steps 5 --json --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("\"points\": 2000"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\"steps\": 5"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("\"point_steps_per_second\""), std::string::npos);
+  const io::PointTable t = io::read_points(out);
+  ASSERT_EQ(t.size(), 2000u);
+  // Extra properties are carried through unchanged, colour is added.
+  const io::PointTable original = io::read_points(in);
+  ASSERT_NE(t.find("intensity"), nullptr);
+  EXPECT_EQ(t.find("intensity")->values, original.find("intensity")->values);
+  EXPECT_NE(t.find("red"), nullptr);
+  // The points moved, but not far: the noise is 1% of the radius.
+  double moved = 0;
+  for (std::size_t i = 0; i < t.size(); ++i) moved = std::max(moved, (t.positions[i] - original.positions[i]).norm());
+  EXPECT_GT(moved, 0.0);
+  EXPECT_LT(moved, 0.2);
+  EXPECT_TRUE(files_except({"in.ply", "out.ply"}).empty());
+}
+
+TEST_F(CliTest, CurvatureWritesEveryAttribute) {
+  const fs::path in = write_cloud("in.ply", 4000);
+  const fs::path out = dir_ / "curv.xyz";
+  const RunResult r = run("curvature " + in.string() + " " + out.string() + " --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const io::PointTable t = io::read_points(out);
+  for (const char* name : {"nx", "ny", "nz", "k1", "k2", "d1x", "d2z", "mean_curvature",
+                           "laplacian_norm", "feature_class", "red"})
+    EXPECT_NE(t.find(name), nullptr) << name;
+  // A noisy unit sphere: the median mean curvature is near 1 (normals point outward, so H < 0
+  // with the convention kappa = 2 <n, e> / |e|^2).
+  std::vector<double> h = t.find("mean_curvature")->values;
+  std::nth_element(h.begin(), h.begin() + static_cast<long>(h.size() / 2), h.end());
+  EXPECT_NEAR(std::abs(h[h.size() / 2]), 1.0, 0.35);
+}
+
+TEST_F(CliTest, HelpListsUnitsAndDefaults) {
+  const RunResult r = run("smooth --help");
+  ASSERT_EQ(r.exit_code, 0);
+  for (const char* option : {"--k", "--eps", "--steps", "--tau", "--flow", "--cutoff", "--lambda",
+                             "--constrain-normal", "--rebuild-every", "--neighbors-from",
+                             "--features", "--edge-quotient", "--colour-by", "--json", "--threads"})
+    EXPECT_NE(r.out.find(option), std::string::npos) << option;
+  EXPECT_NE(r.out.find("1/length"), std::string::npos);
+  EXPECT_NE(r.out.find("Default 16"), std::string::npos);
+}
+
+TEST_F(CliTest, BadArgumentsExitTwo) {
+  const fs::path in = write_cloud("in.ply", 100);
+  EXPECT_EQ(run("smooth " + in.string() + " " + (dir_ / "o.ply").string() + " --tau 7").exit_code, 2);
+  EXPECT_EQ(run("smooth " + in.string() + " " + (dir_ / "o.ply").string() + " --bogus").exit_code, 2);
+  EXPECT_EQ(run("smooth " + in.string()).exit_code, 2);
+  EXPECT_EQ(run("frobnicate").exit_code, 2);
+  EXPECT_FALSE(fs::exists(dir_ / "o.ply"));
+}
+
+TEST_F(CliTest, BadInputsFailCleanly) {
+  const std::string header = "ply\nformat binary_little_endian 1.0\nelement vertex 10\n"
+                             "property float x\nproperty float y\nproperty float z\nend_header\n";
+  const std::string nan_ascii = "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\n"
+                                "property float y\nproperty float z\nend_header\n0 0 0\nnan 1 2\n";
+  const std::string count_too_large = "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\n"
+                                      "property float y\nproperty float z\nend_header\n0 0 0\n1 1 1\n";
+  const std::string unknown_type = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float16 x\n"
+                                   "property float y\nproperty float z\nend_header\n0 0 0\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"empty.ply", ""},
+      {"truncated.ply", header + std::string(12 * 4 + 5, '\0')},
+      {"count.ply", count_too_large},
+      {"nan.ply", nan_ascii},
+      {"type.ply", unknown_type},
+      {"nan.xyz", "0 0 0\n1 nan 2\n"},
+  };
+  for (const auto& [name, bytes] : cases) {
+    SCOPED_TRACE(name);
+    const fs::path in = write_bytes(name, bytes);
+    const fs::path out = dir_ / ("out_" + name + ".ply");
+    expect_clean_failure(run("smooth " + in.string() + " " + out.string()), 3, in, out);
+  }
+  const fs::path unknown = write_bytes("cloud.foo", "0 0 0\n");
+  expect_clean_failure(run("smooth " + unknown.string() + " " + (dir_ / "o.ply").string()), 3, unknown,
+                       dir_ / "o.ply");
+  const fs::path missing = dir_ / "missing.ply";
+  expect_clean_failure(run("smooth " + missing.string() + " " + (dir_ / "o.ply").string()), 3, missing,
+                       dir_ / "o.ply");
+  // No temporary files left anywhere in the folder.
+  for (const auto& name : files_except({})) EXPECT_EQ(name.find(".tmp"), std::string::npos) << name;
+}
+
+TEST_F(CliTest, OutputEqualToInputIsRefusedAndInputKept) {
+  const fs::path in = write_cloud("in.ply", 500);
+  const std::string before = slurp(in);
+  const RunResult r = run("smooth " + in.string() + " " + in.string() + " --steps 2");
+  EXPECT_EQ(r.exit_code, 3);
+  EXPECT_NE(r.err.find("in.ply"), std::string::npos);
+  EXPECT_EQ(slurp(in), before);
+}
+
+TEST_F(CliTest, UnwritableOutputFolderFailsCleanly) {
+  const fs::path in = write_cloud("in.ply", 300);
+  const fs::path out = dir_ / "no" / "such" / "folder" / "out.ply";
+  const RunResult r = run("smooth " + in.string() + " " + out.string() + " --steps 1");
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("out.ply"), std::string::npos) << r.err;
+}
+
+TEST_F(CliTest, NeighborsFromReferenceOfOtherSizeIsRejected) {
+  const fs::path in = write_cloud("in.ply", 300);
+  const fs::path ref = write_cloud("ref.ply", 200);
+  const RunResult r = run("smooth " + in.string() + " " + (dir_ / "o.ply").string() +
+                          " --neighbors-from " + ref.string());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_FALSE(fs::exists(dir_ / "o.ply"));
+}
+
+TEST_F(CliTest, DemoRunsOnSmallOctahedron) {
+  const RunResult r = run("demo --out " + (dir_ / "demo").string() + " --level 3 --steps 5 --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("anisotropic, 5 steps"), std::string::npos) << r.out;
+  for (const char* f : {"octahedron_noisy.ply", "octahedron_aniso.ply", "octahedron_iso.ply", "summary.json"})
+    EXPECT_TRUE(fs::exists(dir_ / "demo" / f)) << f;
+  EXPECT_EQ(io::read_points(dir_ / "demo" / "octahedron_aniso.ply").size(), 258u);  // 4^4 + 2
+}
+
+TEST_F(CliTest, ThreadsGiveIdenticalOutput) {
+  const fs::path in = write_cloud("in.ply", 3000);
+  ASSERT_EQ(run("smooth " + in.string() + " " + (dir_ / "a.ply").string() + " --steps 4 --threads 1 --quiet").exit_code, 0);
+  ASSERT_EQ(run("smooth " + in.string() + " " + (dir_ / "b.ply").string() + " --steps 4 --threads 2 --quiet").exit_code, 0);
+  EXPECT_EQ(slurp(dir_ / "a.ply"), slurp(dir_ / "b.ply"));
+}
