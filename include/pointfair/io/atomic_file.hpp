@@ -1,0 +1,46 @@
+#pragma once
+// Output files that appear complete or not at all.
+#include <cstddef>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <string_view>
+
+namespace pointfair::io {
+
+/// A stdio stream whose every write is checked. Does not own the stream.
+class FileSink {
+ public:
+  /// `name` is the file named in error messages (the final target, not a temporary).
+  FileSink(std::FILE* file, std::filesystem::path name);
+
+  /// Writes `size` bytes. Throws IoError "<name>: write failed: <reason>".
+  void write(const void* data, std::size_t size);
+  void write(std::string_view text) { write(text.data(), text.size()); }
+  /// Flushes the stdio buffer. Throws IoError "<name>: write failed: <reason>".
+  void flush();
+
+  const std::filesystem::path& name() const { return name_; }
+
+ private:
+  std::FILE* file_;
+  std::filesystem::path name_;
+};
+
+/// Writes `target` by calling `write_body` on a new temporary file in the same directory
+/// (".<name>.tmp-<pid>-<random>"), then flushing, syncing and renaming it onto `target`.
+/// A reader of `target` sees the old file or the complete new one, never a partial one.
+/// On any failure, including an exception from `write_body`, the temporary file is removed,
+/// an existing `target` is left untouched and the exception propagates. An existing target's
+/// permission bits are kept.
+/// Throws IoError "<target>: <problem>" (e.g. "write failed: No space left on device",
+/// "cannot create file: No such file or directory").
+void write_file_atomically(const std::filesystem::path& target,
+                           const std::function<void(FileSink&)>& write_body);
+
+/// Throws IoError "<output>: output would overwrite the input" if `output` names the same
+/// file as `input`: the same file on disk when `output` exists, else the same normalised
+/// absolute path.
+void require_distinct(const std::filesystem::path& input, const std::filesystem::path& output);
+
+}  // namespace pointfair::io

@@ -1,0 +1,31 @@
+#pragma once
+// Stanford PLY (format 1.0) point files.
+#include <filesystem>
+
+#include "pointfair/io/point_table.hpp"
+
+namespace pointfair::io {
+
+enum class PlyEncoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
+
+/// Reads the "vertex" element of a PLY file (ascii, binary_little_endian or
+/// binary_big_endian). x, y, z (float or double) become positions; every other vertex
+/// property becomes an Attribute of the same type, in file order. Other elements (faces,
+/// edges, ...) are skipped with one warning each ("<file>: 12 faces ignored"), as are bytes
+/// after a binary body.
+/// Throws IoError "<file>: <problem>" for an unreadable, malformed or truncated file, a list
+/// property in the vertex element, or a non-finite coordinate. Header counts are checked
+/// against the file size before anything is allocated.
+PointTable read_ply(const std::filesystem::path& file, const ReadOptions& options = {});
+
+/// Writes `table` atomically (see write_file_atomically) as a PLY file: x, y, z stored as
+/// float when table.position_type is Float32 and as double otherwise, then every attribute
+/// in order in its own type (integers rounded and saturated to the type's range). ASCII
+/// numbers read back exactly.
+/// Throws IoError "<file>: <problem>" for a non-finite position, an attribute whose size
+/// differs from the number of points, an attribute name that cannot appear in a PLY header
+/// (empty, whitespace, duplicate, x/y/z) or a write failure.
+void write_ply(const std::filesystem::path& file, const PointTable& table,
+               PlyEncoding encoding = PlyEncoding::BinaryLittleEndian);
+
+}  // namespace pointfair::io

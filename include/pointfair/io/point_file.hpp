@@ -1,0 +1,32 @@
+#pragma once
+// Point files of any supported format, chosen by the file extension.
+#include <filesystem>
+
+#include "pointfair/io/ply.hpp"
+#include "pointfair/io/point_table.hpp"
+
+namespace pointfair::io {
+
+struct WriteOptions {
+  PlyEncoding ply_encoding = PlyEncoding::BinaryLittleEndian;
+  /// When not empty, write_points refuses to write onto this file (see require_distinct).
+  std::filesystem::path input;
+};
+
+/// True if the extension (case-insensitive) is one read_points/write_points handle:
+/// .ply, .xyz, .txt, .pts or .csv.
+bool is_supported_point_file(const std::filesystem::path& file);
+
+/// Reads `file` with read_ply (.ply) or read_xyz (.xyz .txt .pts .csv), case-insensitively.
+/// Throws IoError "<file>: <problem>": "unknown file extension '.foo' (expected ...)",
+/// "... files are not supported by this build yet" for .las/.laz/.h5/.hdf5,
+/// "cannot open: No such file or directory", or any error of the format's reader.
+PointTable read_points(const std::filesystem::path& file, const ReadOptions& options = {});
+
+/// Writes `table` with write_ply (using options.ply_encoding) or write_xyz, by extension.
+/// Throws IoError as read_points for the extension, "output would overwrite the input" when
+/// `file` is options.input, or any error of the format's writer.
+void write_points(const std::filesystem::path& file, const PointTable& table,
+                  const WriteOptions& options = {});
+
+}  // namespace pointfair::io

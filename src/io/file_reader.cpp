@@ -1,0 +1,115 @@
+#include "file_reader.hpp"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <string>
+#include <utility>
+
+#include "io_error.hpp"
+
+namespace pointfair::io::detail {
+
+namespace {
+constexpr std::size_t kBufferSize = std::size_t{1} << 20;
+}
+
+FileReader::FileReader(std::filesystem::path path) : path_(std::move(path)) {
+  file_ = std::fopen(path_.c_str(), "rb");
+  if (file_ == nullptr) fail(path_, "cannot open: " + system_error_text(errno));
+  struct stat info {};
+  if (::fstat(::fileno(file_), &info) != 0) {
+    const int error = errno;
+    std::fclose(file_);
+    fail(path_, "cannot open: " + system_error_text(error));
+  }
+  if (S_ISDIR(info.st_mode)) {
+    std::fclose(file_);
+    fail(path_, "cannot open: " + system_error_text(EISDIR));
+  }
+  size_ = static_cast<std::uint64_t>(info.st_size);
+  // This class does its own buffering; a second stdio buffer would only add copies.
+  std::setvbuf(file_, nullptr, _IONBF, 0);
+  buffer_.resize(kBufferSize);
+}
+
+FileReader::~FileReader() { std::fclose(file_); }
+
+std::size_t FileReader::read_from_file(char* out, std::size_t size) {
+  const std::size_t got = std::fread(out, 1, size, file_);
+  if (got < size && std::ferror(file_)) {
+    fail(path_, "read failed: " + system_error_text(errno != 0 ? errno : EIO));
+  }
+  return got;
+}
+
+bool FileReader::refill() {
+  if (begin_ > 0) {
+    std::copy(buffer_.begin() + static_cast<std::ptrdiff_t>(begin_),
+              buffer_.begin() + static_cast<std::ptrdiff_t>(end_), buffer_.begin());
+    end_ -= begin_;
+    begin_ = 0;
+  }
+  if (end_ == buffer_.size()) buffer_.resize(buffer_.size() * 2);  // a very long line
+  const std::size_t got = read_from_file(buffer_.data() + end_, buffer_.size() - end_);
+  end_ += got;
+  return got > 0;
+}
+
+bool FileReader::next_line(std::string_view& line) {
+  std::size_t scanned = 0;  // bytes after begin_ already known to hold no '\n'
+  for (;;) {
+    const char* start = buffer_.data() + begin_;
+    const auto* newline =
+        static_cast<const char*>(std::memchr(start + scanned, '\n', end_ - begin_ - scanned));
+    std::size_t length = 0;
+    std::size_t advance = 0;
+    if (newline != nullptr) {
+      length = static_cast<std::size_t>(newline - start);
+      advance = length + 1;
+    } else {
+      scanned = end_ - begin_;
+      if (refill()) continue;
+      if (begin_ == end_) return false;
+      length = end_ - begin_;  // last line without a final newline
+      advance = length;
+      start = buffer_.data() + begin_;
+    }
+    begin_ += advance;
+    consumed_ += advance;
+    ++line_number_;
+    if (length > 0 && start[length - 1] == '\r') --length;
+    line = std::string_view(start, length);
+    return true;
+  }
+}
+
+std::size_t FileReader::read(char* out, std::size_t size) {
+  const std::size_t buffered = std::min(size, end_ - begin_);
+  std::copy_n(buffer_.data() + begin_, buffered, out);
+  begin_ += buffered;
+  std::size_t done = buffered;
+  if (done < size) done += read_from_file(out + done, size - done);
+  consumed_ += done;
+  return done;
+}
+
+std::uint64_t FileReader::skip(std::uint64_t size) {
+  const std::uint64_t buffered = std::min<std::uint64_t>(size, end_ - begin_);
+  begin_ += static_cast<std::size_t>(buffered);
+  std::uint64_t done = buffered;
+  // Seek instead of reading what is skipped, but never past the known end of file.
+  const std::uint64_t rest = std::min(size - done, remaining() - buffered);
+  if (rest > 0) {
+    if (::fseeko(file_, static_cast<off_t>(rest), SEEK_CUR) != 0) {
+      fail(path_, "read failed: " + system_error_text(errno));
+    }
+    done += rest;
+  }
+  consumed_ += done;
+  return done;
+}
+
+}  // namespace pointfair::io::detail

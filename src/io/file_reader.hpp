@@ -1,0 +1,52 @@
+#pragma once
+// Internal buffered reader for point files: lines for headers and text bodies, raw bytes
+// for binary bodies, and the number of bytes left so that counts in a header can be
+// checked against the file size before anything is allocated.
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <string_view>
+#include <vector>
+
+namespace pointfair::io::detail {
+
+class FileReader {
+ public:
+  /// Opens `path` for reading. Throws IoError "<path>: cannot open: <reason>".
+  explicit FileReader(std::filesystem::path path);
+  ~FileReader();
+  FileReader(const FileReader&) = delete;
+  FileReader& operator=(const FileReader&) = delete;
+
+  const std::filesystem::path& path() const { return path_; }
+  /// Size of the file when it was opened.
+  std::uint64_t size() const { return size_; }
+  /// Bytes not yet returned by next_line/read/skip.
+  std::uint64_t remaining() const { return consumed_ < size_ ? size_ - consumed_ : 0; }
+  /// 1-based number of the line last returned by next_line.
+  std::uint64_t line_number() const { return line_number_; }
+
+  /// The next line without its '\n' (and without a trailing '\r'); false at end of file.
+  /// The view stays valid until the next call on this reader. Throws IoError on read errors.
+  bool next_line(std::string_view& line);
+  /// Copies up to `size` bytes into `out`; returns how many were available.
+  std::size_t read(char* out, std::size_t size);
+  /// Skips up to `size` bytes; returns how many were skipped.
+  std::uint64_t skip(std::uint64_t size);
+
+ private:
+  /// Moves unread bytes to the front and reads more; false when nothing more was read.
+  bool refill();
+  std::size_t read_from_file(char* out, std::size_t size);
+
+  std::filesystem::path path_;
+  std::FILE* file_ = nullptr;
+  std::uint64_t size_ = 0;
+  std::uint64_t consumed_ = 0;
+  std::uint64_t line_number_ = 0;
+  std::vector<char> buffer_;
+  std::size_t begin_ = 0;  // first unread byte in buffer_
+  std::size_t end_ = 0;    // one past the last valid byte in buffer_
+};
+
+}  // namespace pointfair::io::detail
