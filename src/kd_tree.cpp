@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include <nanoflann.hpp>
 
@@ -28,14 +29,22 @@ class CanonicalKnn {
   using DistanceType = double;
   using IndexType = Index;
 
-  CanonicalKnn(int capacity, double max_distance2, Index* indices, double* distances2)
-      : capacity_(capacity), max_distance2_(max_distance2), indices_(indices), dists_(distances2) {}
+  // `original` maps the tree's internal (leaf-ordered) indices to the caller's indices;
+  // results and the tie rule use the caller's indices.
+  CanonicalKnn(int capacity, double max_distance2, const Index* original, Index* indices,
+               double* distances2)
+      : capacity_(capacity),
+        max_distance2_(max_distance2),
+        original_(original),
+        indices_(indices),
+        dists_(distances2) {}
 
   int size() const { return count_; }
   bool full() const { return count_ == capacity_; }
 
-  bool addPoint(double dist, Index index) {
+  bool addPoint(double dist, Index internal) {
     if (dist > max_distance2_) return true;
+    const Index index = original_[internal];
     if (full() && !before(dist, index, dists_[count_ - 1], indices_[count_ - 1])) return true;
     int i = full() ? count_ - 1 : count_;
     while (i > 0 && before(dist, index, dists_[i - 1], indices_[i - 1])) {
@@ -46,34 +55,48 @@ class CanonicalKnn {
     dists_[i] = dist;
     indices_[i] = index;
     if (!full()) ++count_;
+    worst_ = full() ? std::nextafter(dists_[count_ - 1], std::numeric_limits<double>::infinity())
+                    : worst_;
     return true;
   }
 
   // nanoflann offers a point only if its distance is strictly below worstDist(); report the
   // next larger double so that a point tied with the current worst is still offered.
-  double worstDist() const {
-    const double worst = full() ? dists_[count_ - 1] : max_distance2_;
-    return std::nextafter(worst, std::numeric_limits<double>::infinity());
-  }
+  double worstDist() const { return worst_; }
 
  private:
   static bool before(double d, Index i, double d2, Index i2) { return d < d2 || (d == d2 && i < i2); }
 
   int capacity_;
   double max_distance2_;
+  const Index* original_;
   Index* indices_;
   double* dists_;
   int count_ = 0;
+  double worst_ = std::nextafter(max_distance2_, std::numeric_limits<double>::infinity());
 };
 
 }  // namespace
 
+// The tree is built over the caller's points, then the points are copied in the tree's leaf
+// order and the tree is pointed at the copy: leaf scans then read contiguous memory instead
+// of jumping through the caller's array. `original` maps copy positions back.
 struct KdTree::Impl {
+  std::span<const Vec3> points;
+  std::vector<Vec3> ordered;
+  std::vector<Index> original;
   PointsAdaptor adaptor;
   Tree tree;
-  explicit Impl(std::span<const Vec3> points)
-      : adaptor{points}, tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {
+  explicit Impl(std::span<const Vec3> pts)
+      : points(pts), adaptor{pts}, tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {
     tree.buildIndex();
+    original.assign(tree.vAcc.begin(), tree.vAcc.end());
+    ordered.resize(original.size());
+    for (std::size_t i = 0; i < original.size(); ++i) {
+      ordered[i] = pts[original[i]];
+      tree.vAcc[i] = static_cast<Index>(i);
+    }
+    adaptor.points = ordered;
   }
 };
 
@@ -82,12 +105,14 @@ KdTree::~KdTree() = default;
 KdTree::KdTree(KdTree&&) noexcept = default;
 KdTree& KdTree::operator=(KdTree&&) noexcept = default;
 
-std::span<const Vec3> KdTree::points() const { return impl_->adaptor.points; }
+std::span<const Vec3> KdTree::points() const { return impl_->points; }
+
+std::span<const Index> KdTree::leaf_order() const { return impl_->original; }
 
 int KdTree::nearest(const Vec3& query, int k, double max_distance2, Index* indices,
                     double* distances2) const {
-  if (k <= 0 || impl_->adaptor.points.empty()) return 0;
-  CanonicalKnn result(k, max_distance2, indices, distances2);
+  if (k <= 0 || impl_->points.empty()) return 0;
+  CanonicalKnn result(k, max_distance2, impl_->original.data(), indices, distances2);
   impl_->tree.findNeighbors(result, query.data(), nanoflann::SearchParams());
   return result.size();
 }

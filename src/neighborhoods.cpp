@@ -45,8 +45,12 @@ double resolve_eps(std::span<const Vec3> points, const KdTree& tree, const Neigh
   return params.eps_auto_factor * spacing;
 }
 
-Neighborhoods build_neighborhoods(const KdTree& tree, std::span<const Index> queries, int k,
-                                  double eps) {
+namespace {
+
+// Rows of `queries`, visited in the order `visit` (row numbers; empty: 0, 1, ...). The order
+// only affects speed: each row is written by itself.
+Neighborhoods build_rows(const KdTree& tree, std::span<const Index> queries,
+                         std::span<const Index> visit, int k, double eps) {
   require(k >= 1 && k <= 1024, "k must be in 1..1024, got " + std::to_string(k));
   require(eps > 0.0, "eps must be positive");
   const auto points = tree.points();
@@ -60,7 +64,8 @@ Neighborhoods build_neighborhoods(const KdTree& tree, std::span<const Index> que
   parallel_for(queries.size(), [&](std::size_t begin, std::size_t end) {
     std::vector<Index> idx(static_cast<std::size_t>(want));
     std::vector<double> d2(static_cast<std::size_t>(want));
-    for (std::size_t r = begin; r < end; ++r) {
+    for (std::size_t v = begin; v < end; ++v) {
+      const std::size_t r = visit.empty() ? v : visit[v];
       const Index self = queries[r];
       const int found = tree.nearest(points[self], want, max_d2, idx.data(), d2.data());
       Index* out = result.indices.data() + r * static_cast<std::size_t>(k);
@@ -75,6 +80,13 @@ Neighborhoods build_neighborhoods(const KdTree& tree, std::span<const Index> que
   return result;
 }
 
+}  // namespace
+
+Neighborhoods build_neighborhoods(const KdTree& tree, std::span<const Index> queries, int k,
+                                  double eps) {
+  return build_rows(tree, queries, {}, k, eps);
+}
+
 Neighborhoods build_neighborhoods(std::span<const Vec3> points, const NeighborParams& params) {
   params.validate();
   require(points.size() < std::numeric_limits<Index>::max(),
@@ -83,7 +95,8 @@ Neighborhoods build_neighborhoods(std::span<const Vec3> points, const NeighborPa
   const double eps = resolve_eps(points, tree, params);
   std::vector<Index> all(points.size());
   std::iota(all.begin(), all.end(), Index{0});
-  return build_neighborhoods(tree, all, params.k, eps);
+  // Row i is point i; visiting the rows in the tree's leaf order keeps queries local.
+  return build_rows(tree, all, tree.leaf_order(), params.k, eps);
 }
 
 }  // namespace pointfair

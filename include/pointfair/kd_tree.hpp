@@ -32,6 +32,10 @@ class KdTree {
 
   std::span<const Vec3> points() const;
 
+  /// The points' indices in the tree's leaf order (a permutation of 0..n-1): neighbouring
+  /// entries are near in space, so visiting queries in this order keeps caches warm.
+  std::span<const Index> leaf_order() const;
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
