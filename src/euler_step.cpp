@@ -70,7 +70,8 @@ StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighbo
   return StepStats{degenerate_total.load()};
 }
 
-double auto_lambda(std::span<const Vec3> points, const Neighborhoods& neighborhoods, double factor) {
+double auto_lambda(std::span<const Vec3> points, const Neighborhoods& neighborhoods, double factor,
+                   std::span<const Index> row_of) {
   const std::size_t n = neighborhoods.size();
   if (n == 0) return 1.0;
   // An evenly strided sample of about 8192 points: the median of that many values is within
@@ -82,7 +83,7 @@ double auto_lambda(std::span<const Vec3> points, const Neighborhoods& neighborho
   parallel_for(samples, [&](std::size_t begin, std::size_t end) {
     std::vector<double> kappas;
     for (std::size_t s = begin; s < end; ++s) {
-      const std::size_t i = s * stride;
+      const std::size_t i = row_of.empty() ? s * stride : row_of[s * stride];
       const auto nb = neighborhoods.of(i);
       const Frame f = compute_frame(points[i], nb, points);
       if (!f.valid) continue;

@@ -8,6 +8,7 @@
 
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
+#include "pointfair/spatial_order.hpp"
 
 namespace pointfair {
 namespace {
@@ -38,32 +39,50 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
   auto t0 = std::chrono::steady_clock::now();
   const std::span<const Vec3> first_source =
       options.neighbor_reference.empty() ? std::span<const Vec3>(positions) : options.neighbor_reference;
-  report.neighborhoods = build_neighborhoods(first_source, params.neighbors);
-  report.eps = report.neighborhoods.eps;
-  report.lambda = resolve_lambda(positions, report.neighborhoods, params.flow);
+  // Neighbourhoods are always built in the caller's order, so that their canonical tie rule
+  // (ties by the smaller index) refers to the caller's indices.
+  Neighborhoods original_order = build_neighborhoods(first_source, params.neighbors);
+  report.eps = original_order.eps;
+
+  // The steps run on a copy stored in Morton order (neighbours near in memory); relabelling
+  // changes no bit of the result (see spatial_order.hpp).
+  const std::vector<Index> order = spatial_order(positions);
+  const std::vector<Index> row_of = inverse_permutation(order);
+  Neighborhoods neighborhoods = permute_neighborhoods(original_order, order, row_of);
+  original_order = Neighborhoods{};
+  std::vector<Vec3> current = gather(positions, order);
+  std::vector<Vec3> next(current.size());
+  auto measure_lambda = [&] {
+    return params.flow.lambda > 0.0
+               ? params.flow.lambda
+               : auto_lambda(current, neighborhoods, params.flow.lambda_auto_factor, row_of);
+  };
+  report.lambda = measure_lambda();
   report.seconds_neighbors += seconds_since(t0);
 
-  std::vector<Vec3> next(positions.size());
   for (int step = 0; step < params.steps; ++step) {
     if (params.rebuild_interval > 0 && step > 0 && step % params.rebuild_interval == 0) {
       t0 = std::chrono::steady_clock::now();
-      report.neighborhoods = build_neighborhoods(positions, params.neighbors);
-      report.eps = report.neighborhoods.eps;
-      if (params.flow.lambda == 0.0) report.lambda = resolve_lambda(positions, report.neighborhoods, params.flow);
+      const Neighborhoods rebuilt = build_neighborhoods(scatter(current, order), params.neighbors);
+      neighborhoods = permute_neighborhoods(rebuilt, order, row_of);
+      report.eps = neighborhoods.eps;
+      report.lambda = measure_lambda();
       ++report.rebuilds;
       report.seconds_neighbors += seconds_since(t0);
     }
     t0 = std::chrono::steady_clock::now();
-    if (params.lambda_every_step && params.flow.lambda == 0.0 && step > 0)
-      report.lambda = resolve_lambda(positions, report.neighborhoods, params.flow);
+    if (params.lambda_every_step && step > 0) report.lambda = measure_lambda();
     const StepStats stats =
-        euler_step(positions, report.neighborhoods, {}, params.flow, report.lambda, next);
-    positions.swap(next);
+        euler_step(current, neighborhoods, {}, params.flow, report.lambda, next);
+    current.swap(next);
     report.degenerate = stats.degenerate;
     report.seconds_steps += seconds_since(t0);
     ++report.steps;
     if (options.progress) options.progress(step + 1, params.steps);
   }
+  next = std::vector<Vec3>{};
+  positions = scatter(current, order);
+  report.neighborhoods = permute_neighborhoods(neighborhoods, row_of, order);
   return report;
 }
 

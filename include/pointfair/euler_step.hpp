@@ -70,8 +70,11 @@ StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighbo
                      std::span<const Index> rows, const FlowParams& params, double lambda,
                      std::span<Vec3> next);
 
-/// The automatic lambda (see FlowParams::lambda) of `points` with `neighborhoods`.
-double auto_lambda(std::span<const Vec3> points, const Neighborhoods& neighborhoods, double factor);
+/// The automatic lambda (see FlowParams::lambda) of `points` with `neighborhoods`, measured on
+/// the points with original index 0, s, 2s, ... (s = max(1, n / 8192)). `row_of[i]` is where
+/// original point i is stored (its row and position); empty means i itself.
+double auto_lambda(std::span<const Vec3> points, const Neighborhoods& neighborhoods, double factor,
+                   std::span<const Index> row_of = {});
 
 /// The threshold params ask for: params.lambda, or auto_lambda.
 double resolve_lambda(std::span<const Vec3> points, const Neighborhoods& neighborhoods,

@@ -1,0 +1,92 @@
+// Morton reordering and relabelled neighbourhoods: smooth() runs on a reordered copy, which
+// must not change a single bit of the result.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <numeric>
+#include <vector>
+
+#include "pointfair/euler_step.hpp"
+#include "pointfair/shapes.hpp"
+#include "pointfair/smooth.hpp"
+#include "pointfair/spatial_order.hpp"
+
+namespace pointfair {
+namespace {
+
+std::vector<Vec3> noisy_cube(std::size_t n, std::uint64_t seed) {
+  std::vector<Vec3> points = sample_mesh(cube_mesh(), n, seed).points;
+  add_noise(points, 0.01, seed + 1);
+  return points;
+}
+
+bool same_bits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
+}
+
+TEST(SpatialOrder, IsAPermutationAndLocal) {
+  const auto points = noisy_cube(5000, 3);
+  const auto order = spatial_order(points);
+  std::vector<Index> sorted = order;
+  std::sort(sorted.begin(), sorted.end());
+  std::vector<Index> expected(points.size());
+  std::iota(expected.begin(), expected.end(), Index{0});
+  EXPECT_EQ(sorted, expected);
+  // Consecutive points in Morton order are much closer than consecutive input points.
+  double ordered_gap = 0, input_gap = 0;
+  for (std::size_t s = 1; s < points.size(); ++s) {
+    ordered_gap += (points[order[s]] - points[order[s - 1]]).norm();
+    input_gap += (points[s] - points[s - 1]).norm();
+  }
+  EXPECT_LT(ordered_gap, 0.2 * input_gap);
+  const auto inverse = inverse_permutation(order);
+  for (std::size_t s = 0; s < order.size(); ++s) EXPECT_EQ(inverse[order[s]], s);
+  EXPECT_TRUE(same_bits(scatter(gather(points, order), order), points));
+}
+
+TEST(SpatialOrder, PermutedNeighbourhoodsNameTheSamePoints) {
+  const auto points = noisy_cube(3000, 5);
+  const Neighborhoods nb = build_neighborhoods(points, {.k = 12});
+  const auto order = spatial_order(points);
+  const auto inverse = inverse_permutation(order);
+  const Neighborhoods p = permute_neighborhoods(nb, order, inverse);
+  const auto moved = gather(points, order);
+  for (std::size_t s = 0; s < order.size(); ++s) {
+    const auto a = nb.of(order[s]);
+    const auto b = p.of(s);
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t j = 0; j < a.size(); ++j) EXPECT_EQ(points[a[j]], moved[b[j]]);
+  }
+  // And back again.
+  const Neighborhoods back = permute_neighborhoods(p, inverse, order);
+  EXPECT_EQ(back.indices, nb.indices);
+  EXPECT_EQ(back.counts, nb.counts);
+}
+
+// smooth() (reordered internally) against plain Euler steps in the input order.
+TEST(SpatialOrder, SmoothIsBitIdenticalToStepsInInputOrder) {
+  const auto input = noisy_cube(4000, 9);
+  for (const bool every_step : {false, true}) {
+    SmoothParams params;
+    params.steps = 6;
+    params.lambda_every_step = every_step;
+    std::vector<Vec3> smoothed = input;
+    const SmoothReport report = smooth(smoothed, params);
+
+    std::vector<Vec3> current = input, next(input.size());
+    const Neighborhoods nb = build_neighborhoods(input, params.neighbors);
+    double lambda = resolve_lambda(current, nb, params.flow);
+    for (int step = 0; step < params.steps; ++step) {
+      if (every_step && step > 0) lambda = resolve_lambda(current, nb, params.flow);
+      euler_step(current, nb, {}, params.flow, lambda, next);
+      current.swap(next);
+    }
+    EXPECT_TRUE(same_bits(smoothed, current)) << "every_step " << every_step;
+    EXPECT_EQ(report.lambda, lambda);
+    EXPECT_EQ(report.neighborhoods.indices, nb.indices);
+  }
+}
+
+}  // namespace
+}  // namespace pointfair
