@@ -1,6 +1,7 @@
 #include "pointfair/euler_step.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <limits>
 #include <cmath>
@@ -49,6 +50,76 @@ PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
   return s;
 }
 
+namespace {
+
+// The step's hot path: one pass gathers the neighbour offsets into a small local array, the
+// covariance comes from that array, and the cut-off pass reads it again from cache. Same
+// formulas as evaluate_point (which the tests hold it against); evaluate_point is used where
+// the curvature is needed (feature gating) or the neighbourhood is unusually large.
+constexpr std::size_t kLocalNeighbors = 64;
+
+struct Displacement {
+  Vec3 value = Vec3::Zero();
+  bool valid = false;
+};
+
+Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
+                               std::span<const Vec3> points, const FlowParams& params,
+                               double lambda) {
+  Displacement out;
+  const std::size_t m = neighbors.size();
+  if (m == 0) return out;
+  std::array<Vec3, kLocalNeighbors> d;
+  Vec3 sum = Vec3::Zero();
+  for (std::size_t j = 0; j < m; ++j) {
+    d[j] = points[neighbors[j]] - p;
+    sum += d[j];
+  }
+  const double inv_m = 1.0 / static_cast<double>(m);
+  if (params.flow == Flow::Isotropic && !params.constrain_normal) {
+    // The umbrella operator needs no frame.
+    out.value = params.tau * (sum * inv_m);
+    out.valid = true;
+    return out;
+  }
+  double xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
+  for (std::size_t j = 0; j < m; ++j) {
+    const Vec3& v = d[j];
+    xx += v.x() * v.x();
+    xy += v.x() * v.y();
+    xz += v.x() * v.z();
+    yy += v.y() * v.y();
+    yz += v.y() * v.z();
+    zz += v.z() * v.z();
+  }
+  const double count = static_cast<double>(m + 1);
+  const Vec3 mean = sum / count;
+  Eigen::Matrix3d covariance;
+  covariance << xx / count, xy / count, xz / count,  //
+      xy / count, yy / count, yz / count,            //
+      xz / count, yz / count, zz / count;
+  covariance -= mean * mean.transpose();
+  const Frame frame = frame_from_covariance(covariance, p + mean);
+  if (!frame.valid || m < 2) return out;
+  const Vec3& n = frame.normal;
+  Vec3 a = Vec3::Zero();
+  if (params.flow == Flow::Isotropic) {
+    a = sum;
+  } else {
+    for (std::size_t j = 0; j < m; ++j) {
+      const double len2 = d[j].squaredNorm();
+      const double kappa = len2 > 0.0 ? 2.0 * n.dot(d[j]) / len2 : 0.0;
+      a += cutoff_weight(std::abs(kappa), lambda, params.cutoff) * d[j];
+    }
+  }
+  a *= inv_m;
+  out.value = params.constrain_normal ? Vec3(params.tau * a.dot(n) * n) : Vec3(params.tau * a);
+  out.valid = true;
+  return out;
+}
+
+}  // namespace
+
 StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
                      std::span<const Index> rows, const FlowParams& params, double lambda,
                      std::span<Vec3> next) {
@@ -57,13 +128,21 @@ StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighbo
   require(rows.empty() || rows.size() == n, "euler_step: rows must match the neighbourhoods");
   require(!rows.empty() || current.size() == n, "euler_step: one neighbourhood row per point");
   std::atomic<std::size_t> degenerate_total{0};
+  const bool use_fast_path = !(params.feature_gated && params.features.mode != FeatureMode::None);
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
     std::size_t degenerate = 0;
     for (std::size_t r = begin; r < end; ++r) {
       const Vec3& p = current[rows.empty() ? r : rows[r]];
-      const PointState s = evaluate_point(p, neighborhoods.of(r), current, params, lambda, false);
-      if (!s.valid) ++degenerate;
-      next[r] = p + s.displacement;
+      const auto nb = neighborhoods.of(r);
+      if (use_fast_path && nb.size() <= kLocalNeighbors) {
+        const Displacement d = fast_displacement(p, nb, current, params, lambda);
+        if (!d.valid) ++degenerate;
+        next[r] = p + d.value;
+      } else {
+        const PointState s = evaluate_point(p, nb, current, params, lambda, false);
+        if (!s.valid) ++degenerate;
+        next[r] = p + s.displacement;
+      }
     }
     degenerate_total.fetch_add(degenerate, std::memory_order_relaxed);
   }, 2048);

@@ -1,6 +1,8 @@
 #include "pointfair/kd_tree.hpp"
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -24,6 +26,13 @@ using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<do
 // A bounded k-nearest result set with a canonical order: by squared distance, then by index.
 // nanoflann visits every node whose distance bound is <= the current worst distance, so
 // points tied with the k-th are all offered and the smaller index wins.
+// The next larger double of a squared distance (>= 0, finite or +inf), without a libm call.
+inline double next_up(double x) {
+  if (!(x < std::numeric_limits<double>::infinity())) return x;
+  if (x == 0.0) return std::numeric_limits<double>::denorm_min();
+  return std::bit_cast<double>(std::bit_cast<std::uint64_t>(x) + 1);
+}
+
 class CanonicalKnn {
  public:
   using DistanceType = double;
@@ -55,8 +64,7 @@ class CanonicalKnn {
     dists_[i] = dist;
     indices_[i] = index;
     if (!full()) ++count_;
-    worst_ = full() ? std::nextafter(dists_[count_ - 1], std::numeric_limits<double>::infinity())
-                    : worst_;
+    if (full()) worst_ = next_up(dists_[count_ - 1]);
     return true;
   }
 
@@ -73,7 +81,7 @@ class CanonicalKnn {
   Index* indices_;
   double* dists_;
   int count_ = 0;
-  double worst_ = std::nextafter(max_distance2_, std::numeric_limits<double>::infinity());
+  double worst_ = next_up(max_distance2_);
 };
 
 }  // namespace
