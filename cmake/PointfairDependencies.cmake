@@ -2,6 +2,8 @@
 find_package(Eigen3 3.4 REQUIRED NO_MODULE)
 find_package(nanoflann REQUIRED)
 find_package(Threads REQUIRED)
+# zlib compresses the PNG pictures of pointfair render.
+find_package(ZLIB REQUIRED)
 
 if(POINTFAIR_PARALLEL STREQUAL "TBB")
   find_package(TBB REQUIRED)

@@ -182,3 +182,129 @@ double bounding_box_diagonal(std::span<const Vec3> points) {
 }
 
 }  // namespace pointfair
+
+// ---- Further test shapes of Section 5 (truncated octahedron, torus, cylinder ∩ plane) and a
+// minimal surface (Enneper's, in place of the paper's Costa surface, whose Weierstrass data
+// need elliptic functions).
+namespace pointfair {
+
+TriangleMesh truncated_octahedron_mesh() {
+  TriangleMesh m;
+  // All permutations of (0, ±1, ±2).
+  const std::array<std::array<int, 3>, 6> perms = {{{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}}};
+  for (const auto& perm : perms) {
+    for (const int s1 : {-1, 1}) {
+      for (const int s2 : {-1, 1}) {
+        const std::array<double, 3> value = {0.0, 1.0 * s1, 2.0 * s2};
+        Vec3 v;
+        for (int c = 0; c < 3; ++c) v[perm[static_cast<std::size_t>(c)]] = value[static_cast<std::size_t>(c)];
+        m.vertices.push_back(v);
+      }
+    }
+  }
+  // Faces: the planes n . x = d with n in {±e_i} (d = 2) and (±1, ±1, ±1) (d = 3).
+  std::vector<Vec3> normals;
+  for (int c = 0; c < 3; ++c)
+    for (const int s : {-1, 1}) {
+      Vec3 n = Vec3::Zero();
+      n[c] = s;
+      normals.push_back(n);
+    }
+  for (int i = 0; i < 8; ++i) normals.emplace_back(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1);
+  for (const Vec3& n : normals) {
+    double d = -1e300;
+    for (const Vec3& v : m.vertices) d = std::max(d, n.dot(v));
+    std::vector<Index> face;
+    Vec3 centre = Vec3::Zero();
+    for (std::size_t i = 0; i < m.vertices.size(); ++i)
+      if (std::abs(n.dot(m.vertices[i]) - d) < 1e-9) {
+        face.push_back(static_cast<Index>(i));
+        centre += m.vertices[i];
+      }
+    centre /= static_cast<double>(face.size());
+    const Vec3 u = (m.vertices[face[0]] - centre).normalized();
+    const Vec3 w = n.normalized().cross(u);
+    std::sort(face.begin(), face.end(), [&](Index a, Index b) {
+      const Vec3 da = m.vertices[a] - centre, db = m.vertices[b] - centre;
+      return std::atan2(da.dot(w), da.dot(u)) < std::atan2(db.dot(w), db.dot(u));
+    });
+    for (std::size_t k = 1; k + 1 < face.size(); ++k) m.triangles.push_back({face[0], face[k], face[k + 1]});
+  }
+  return m;
+}
+
+SurfaceSamples sample_torus(std::size_t count, double major, double minor, std::uint64_t seed) {
+  require(major > minor && minor > 0.0, "torus radii must satisfy major > minor > 0");
+  Random random(seed);
+  SurfaceSamples s;
+  s.points.reserve(count);
+  s.normals.reserve(count);
+  while (s.points.size() < count) {
+    const double u = 2.0 * std::numbers::pi * random.uniform();
+    const double v = 2.0 * std::numbers::pi * random.uniform();
+    // The area element is proportional to major + minor cos v: accept by rejection.
+    if (random.uniform() * (major + minor) > major + minor * std::cos(v)) continue;
+    const Vec3 n(std::cos(v) * std::cos(u), std::cos(v) * std::sin(u), std::sin(v));
+    s.normals.push_back(n);
+    s.points.push_back(Vec3(major * std::cos(u), major * std::sin(u), 0.0) + minor * n);
+  }
+  return s;
+}
+
+SurfaceSamples sample_cylinder_plane(std::size_t count, double radius, double length, double width,
+                                     std::uint64_t seed) {
+  require(radius > 0.0 && length > 0.0 && width > 0.0, "cylinder-plane sizes must be > 0");
+  Random random(seed);
+  const double cylinder_area = 2.0 * std::numbers::pi * radius * length;
+  const double plane_area = length * width;
+  SurfaceSamples s;
+  s.points.reserve(count);
+  s.normals.reserve(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const double pick = random.uniform() * (cylinder_area + plane_area);
+    const double x = (random.uniform() - 0.5) * length;
+    if (pick < cylinder_area) {
+      const double phi = 2.0 * std::numbers::pi * random.uniform();
+      const Vec3 n(0.0, std::cos(phi), std::sin(phi));
+      s.normals.push_back(n);
+      s.points.push_back(Vec3(x, radius * n.y(), radius * n.z()));
+    } else {
+      const double y = (random.uniform() - 0.5) * width;
+      s.normals.push_back(Vec3::UnitZ());
+      s.points.push_back(Vec3(x, y, 0.0));
+    }
+  }
+  return s;
+}
+
+Vec3 enneper_point(double u, double v) {
+  return {u - u * u * u / 3.0 + u * v * v, v - v * v * v / 3.0 + v * u * u, u * u - v * v};
+}
+
+Vec3 enneper_normal(double u, double v) {
+  const Vec3 xu(1.0 - u * u + v * v, 2.0 * u * v, 2.0 * u);
+  const Vec3 xv(2.0 * u * v, 1.0 - v * v + u * u, -2.0 * v);
+  return xu.cross(xv).normalized();
+}
+
+SurfaceSamples sample_enneper(std::size_t count, double extent, std::uint64_t seed) {
+  require(extent > 0.0 && extent < std::sqrt(3.0), "Enneper extent must be in (0, sqrt 3)");
+  Random random(seed);
+  SurfaceSamples s;
+  s.points.reserve(count);
+  s.normals.reserve(count);
+  const double max_element = (1.0 + extent * extent) * (1.0 + extent * extent);
+  while (s.points.size() < count) {
+    const double u = (2.0 * random.uniform() - 1.0) * extent;
+    const double v = (2.0 * random.uniform() - 1.0) * extent;
+    const double r2 = u * u + v * v;
+    if (r2 > extent * extent) continue;
+    // Area element (1 + u^2 + v^2)^2 du dv.
+    if (random.uniform() * max_element > (1.0 + r2) * (1.0 + r2)) continue;
+    s.points.push_back(enneper_point(u, v));
+    s.normals.push_back(enneper_normal(u, v));
+  }
+  return s;
+}
+
+}  // namespace pointfair

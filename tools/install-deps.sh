@@ -4,7 +4,7 @@
 set -euo pipefail
 
 packages=(g++ cmake ninja-build pkg-config
-          libeigen3-dev libnanoflann-dev libtbb-dev libomp-dev libhdf5-dev
+          libeigen3-dev libnanoflann-dev zlib1g-dev libtbb-dev libomp-dev libhdf5-dev
           libgtest-dev libgmock-dev libbenchmark-dev)
 
 missing=()

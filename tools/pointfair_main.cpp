@@ -27,7 +27,9 @@ constexpr const char* kUsage =
     "  smooth IN OUT      run the (an)isotropic flow on a point file\n"
     "  curvature IN OUT   write normals, principal curvatures and directions, feature classes\n"
     "  demo               the paper's octahedron experiment on a built-in input, into ./out\n"
-    "  generate SHAPE OUT write a sampled test shape with noise\n"
+    "  generate SHAPE OUT write a sampled test shape with noise (and its ground truth)\n"
+    "  eval CLOUD         measure a cloud against ground truth (--truth)\n"
+    "  render IN OUT.png  draw clouds headlessly (side-by-side panels)\n"
     "  version            print the version\n"
     "\n"
     "'pointfair COMMAND --help' lists a command's options with units and defaults.\n"
@@ -48,6 +50,8 @@ int main(int argc, char** argv) {
     if (command == "curvature") return cli::run_curvature(args);
     if (command == "demo") return cli::run_demo(args);
     if (command == "generate") return cli::run_generate(args);
+    if (command == "eval") return cli::run_eval(args);
+    if (command == "render") return cli::run_render(args);
     if (command == "version" || command == "--version") {
       std::printf("pointfair %s\n", version());
       return 0;

@@ -41,6 +41,27 @@ SurfaceSamples sample_sphere(std::size_t count, double radius, std::uint64_t see
 /// |z| <= height / 2.
 SurfaceSamples sample_cylinder(std::size_t count, double radius, double height, std::uint64_t seed);
 
+/// The truncated octahedron: vertices all permutations of (0, ±1, ±2); 8 regular hexagons
+/// (normals (±1, ±1, ±1)/sqrt 3) and 6 squares (normals ±e_i), each split into triangles,
+/// outward-oriented. Dihedral angles 109.47° (hexagon-square) and 125.26° (hexagon-hexagon).
+TriangleMesh truncated_octahedron_mesh();
+/// `count` area-uniform random points on the torus with tube radius `minor` about the circle of
+/// radius `major` in the xy-plane (z the axis), with outward normals.
+SurfaceSamples sample_torus(std::size_t count, double major, double minor, std::uint64_t seed);
+/// `count` area-uniform random points on the union of two surfaces (the paper's Figure 2): the
+/// cylinder y^2 + z^2 = radius^2, |x| <= length / 2 (outward normals), and the plane z = 0,
+/// |x| <= length / 2, |y| <= width / 2 (normal +z), which cuts it along the lines
+/// y = ±radius, z = 0.
+SurfaceSamples sample_cylinder_plane(std::size_t count, double radius, double length,
+                                     double width, std::uint64_t seed);
+/// Enneper's minimal surface x(u, v) = (u - u^3/3 + u v^2, v - v^3/3 + v u^2, u^2 - v^2) and
+/// its unit normal (x_u × x_v normalised). Principal curvatures ±2 / (1 + u^2 + v^2)^2.
+Vec3 enneper_point(double u, double v);
+Vec3 enneper_normal(double u, double v);
+/// `count` area-uniform random points of Enneper's surface over the parameter disc
+/// u^2 + v^2 <= extent^2 (embedded for extent < sqrt 3).
+SurfaceSamples sample_enneper(std::size_t count, double extent, std::uint64_t seed);
+
 /// Adds Gaussian noise with standard deviation `sigma` (length) along the normal and along
 /// both tangent directions: an isotropic 3-D Gaussian, since the three directions are
 /// orthonormal and share one sigma.

@@ -12,5 +12,7 @@ int run_smooth(const Args& args);
 int run_curvature(const Args& args);
 int run_demo(const Args& args);
 int run_generate(const Args& args);
+int run_eval(const Args& args);
+int run_render(const Args& args);
 
 }  // namespace pointfair::cli

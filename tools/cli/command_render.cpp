@@ -1,0 +1,134 @@
+// pointfair render IN OUT.png: a headless picture of one cloud or of side-by-side panels.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "commands.hpp"
+#include "run_support.hpp"
+#include "pointfair/parallel.hpp"
+#include "pointfair/render/splats.hpp"
+
+namespace pointfair::cli {
+
+namespace {
+
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> items;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) if (!item.empty()) items.push_back(item);
+  return items;
+}
+
+// Value at the given quantile of the finite values (0 if none).
+double quantile(std::vector<double> values, double q) {
+  values.erase(std::remove_if(values.begin(), values.end(), [](double v) { return !std::isfinite(v); }), values.end());
+  if (values.empty()) return 0.0;
+  const auto k = static_cast<std::size_t>(q * static_cast<double>(values.size() - 1));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+}  // namespace
+
+int run_render(const Args& args) {
+  std::string input, output_path, panels, labels_text, colour = "kmax", view = "iso", range_text;
+  render::RenderParams params;
+  SmoothParams method;
+  int threads = 0;
+  ArgumentParser parser(
+      "pointfair render",
+      "Draws point clouds into a PNG without a display: orthographic camera, z-buffered round "
+      "splats, Lambert shading from the unsigned PCA normal, colour by maximal |principal "
+      "curvature| or by |A| (hue 0 to 1.5 pi over the range, as in the paper), by the file's "
+      "red/green/blue, or one yellow. Several inputs become side-by-side panels with one camera "
+      "and one colour range.");
+  parser.positional("IN", "Point file, or several separated by commas (panels).", &input);
+  parser.positional("OUT", "PNG file to write.", &output_path);
+  parser.value("panels", "A,B,...", "More point files, drawn as panels after IN.",
+               [&](std::string_view v) { panels = std::string(v); });
+  parser.value("labels", "A,B,...", "Panel labels, in order.", [&](std::string_view v) { labels_text = std::string(v); });
+  parser.value("colour", "kmax|laplacian|file|none",
+               "Colour source. Default kmax (the method's curvature with the method options below).",
+               [&](std::string_view v) { colour = std::string(v); });
+  parser.value("range", "LOW,HIGH", "Scalar range of the hue map. Default: 1st to 99th percentile over all panels.",
+               [&](std::string_view v) { range_text = std::string(v); });
+  parser.value("view", "iso|front|side|top|back", "Camera preset. Default iso.", [&](std::string_view v) { view = std::string(v); });
+  parser.value("yaw", "DEGREES", "Turn the camera about the screen's vertical axis. Default 0.",
+               [&](std::string_view v) { params.yaw_degrees = parse_double(v, "--yaw"); });
+  parser.value("size", "PIXELS", "Width and height of each panel. Default 640.", [&](std::string_view v) {
+    params.width = params.height = parse_int(v, "--size");
+  });
+  parser.value("splat", "F", "Splat radius, times the median distance to the 8th neighbour. Default 0.45.",
+               [&](std::string_view v) { params.splat_scale = parse_double(v, "--splat"); });
+  parser.flag("flat", "No shading.", [&] { params.shade = false; });
+  parser.value("threads", "N", "Worker threads (0 = all cores). Default 0.",
+               [&](std::string_view v) { threads = parse_int(v, "--threads"); });
+  add_method_options(parser, method);
+  if (!parser.parse(args)) return 0;
+  params.view = render::parse_view(view);
+  params.validate();
+  method.validate();
+  if (colour != "kmax" && colour != "laplacian" && colour != "file" && colour != "none")
+    throw UsageError("--colour must be kmax, laplacian, file or none");
+  set_thread_count(threads);
+
+  std::vector<std::string> files = split_list(input);
+  for (const auto& f : split_list(panels)) files.push_back(f);
+  if (files.empty()) throw UsageError("pointfair render: no input file");
+  const std::vector<std::string> labels = split_list(labels_text);
+
+  std::vector<io::PointTable> tables;
+  std::vector<std::vector<double>> scalars;
+  for (const auto& f : files) {
+    tables.push_back(read_input(f, true));
+    std::vector<double> s;
+    if ((colour == "kmax" || colour == "laplacian") && tables.back().size() > 3) {
+      const auto& points = tables.back().positions;
+      const Neighborhoods nb = build_neighborhoods(points, method.neighbors);
+      const double lambda = resolve_lambda(points, nb, method.flow);
+      const PointAttributes a = compute_attributes(points, nb, method.flow, lambda);
+      s.resize(points.size());
+      for (std::size_t i = 0; i < s.size(); ++i)
+        s[i] = colour == "laplacian" ? a.laplacian_norm[i] : std::max(std::abs(a.k1[i]), std::abs(a.k2[i]));
+    }
+    scalars.push_back(std::move(s));
+  }
+  double low = 0, high = 0;
+  if (!range_text.empty()) {
+    const auto parts = split_list(range_text);
+    if (parts.size() != 2) throw UsageError("--range needs LOW,HIGH");
+    low = parse_double(parts[0], "--range");
+    high = parse_double(parts[1], "--range");
+  } else {
+    std::vector<double> all;
+    for (const auto& s : scalars) all.insert(all.end(), s.begin(), s.end());
+    low = quantile(all, 0.01);
+    high = quantile(all, 0.99);
+  }
+  std::vector<std::vector<Rgb>> colours(tables.size());
+  for (std::size_t k = 0; k < tables.size(); ++k) {
+    if (!scalars[k].empty()) {
+      for (const double v : scalars[k]) colours[k].push_back(hue_colour(v, low, high));
+    } else if (colour == "file") {
+      const auto* r = tables[k].find("red");
+      const auto* g = tables[k].find("green");
+      const auto* b = tables[k].find("blue");
+      if (r && g && b)
+        for (std::size_t i = 0; i < tables[k].size(); ++i)
+          colours[k].push_back({static_cast<std::uint8_t>(std::clamp(r->values[i], 0.0, 255.0)),
+                                static_cast<std::uint8_t>(std::clamp(g->values[i], 0.0, 255.0)),
+                                static_cast<std::uint8_t>(std::clamp(b->values[i], 0.0, 255.0))});
+    }
+  }
+  std::vector<render::CloudView> views;
+  for (std::size_t k = 0; k < tables.size(); ++k) views.push_back({tables[k].positions, colours[k], {}});
+  const render::Image image = render::render_panels(views, labels, params);
+  render::write_png(output_path, image);
+  std::fprintf(stderr, "render: %zu panel%s, %dx%d -> %s\n", views.size(), views.size() == 1 ? "" : "s", image.width,
+               image.height, output_path.c_str());
+  return 0;
+}
+
+}  // namespace pointfair::cli
