@@ -4,6 +4,10 @@ find_package(nanoflann REQUIRED)
 find_package(Threads REQUIRED)
 # zlib compresses the PNG pictures of pointfair render.
 find_package(ZLIB REQUIRED)
+# The out-of-core container (pointfair::tiles) uses the HDF5 C library; FindHDF5 probes it
+# with a C compiler.
+enable_language(C)
+find_package(HDF5 REQUIRED COMPONENTS C)
 
 if(POINTFAIR_PARALLEL STREQUAL "TBB")
   find_package(TBB REQUIRED)

@@ -1,7 +1,7 @@
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
-install(TARGETS pointfair_core pointfair_io pointfair
+install(TARGETS pointfair_core pointfair_io pointfair_tiles pointfair
   EXPORT pointfairTargets
   RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR}
   LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}

@@ -30,6 +30,8 @@ constexpr const char* kUsage =
     "  generate SHAPE OUT write a sampled test shape with noise (and its ground truth)\n"
     "  eval CLOUD         measure a cloud against ground truth (--truth)\n"
     "  render IN OUT.png  draw clouds headlessly (side-by-side panels)\n"
+    "  import IN OUT.h5   write a point file into the tiled HDF5 container (out-of-core runs)\n"
+    "  export IN.h5 OUT   write a container (and its smoothing run) to a point file\n"
     "  version            print the version\n"
     "\n"
     "'pointfair COMMAND --help' lists a command's options with units and defaults.\n"
@@ -50,6 +52,8 @@ int main(int argc, char** argv) {
     if (command == "curvature") return cli::run_curvature(args);
     if (command == "demo") return cli::run_demo(args);
     if (command == "generate") return cli::run_generate(args);
+    if (command == "import") return cli::run_import(args);
+    if (command == "export") return cli::run_export(args);
     if (command == "eval") return cli::run_eval(args);
     if (command == "render") return cli::run_render(args);
     if (command == "version" || command == "--version") {

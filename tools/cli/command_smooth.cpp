@@ -20,6 +20,8 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 int run_smooth(const Args& args) {
+  // HDF5 containers, --memory-budget and --resume: the out-of-core run (command_smooth_tiled.cpp).
+  if (wants_out_of_core(args)) return run_smooth_out_of_core(args);
   std::string input, output_path, reference;
   SmoothParams params;
   OutputOptions output;

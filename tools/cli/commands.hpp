@@ -12,6 +12,12 @@ int run_smooth(const Args& args);
 int run_curvature(const Args& args);
 int run_demo(const Args& args);
 int run_generate(const Args& args);
+int run_import(const Args& args);
+int run_export(const Args& args);
+/// True when a smooth command line asks for an out-of-core run (an .h5 argument,
+/// --memory-budget or --resume); run_smooth then hands over to run_smooth_out_of_core.
+bool wants_out_of_core(const Args& args);
+int run_smooth_out_of_core(const Args& args);
 int run_eval(const Args& args);
 int run_render(const Args& args);
 

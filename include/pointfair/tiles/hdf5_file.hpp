@@ -1,0 +1,169 @@
+#pragma once
+// A thin RAII wrapper over the HDF5 C API: the one place of the project that calls it.
+// Handles close themselves; every failure throws io::IoError "<file>: <object>: <problem>".
+//
+// Thread-safety: libhdf5 (serial build) is not thread-safe; keep every call on one thread.
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <vector>
+
+#include "pointfair/io/point_table.hpp"
+
+namespace pointfair::tiles::h5 {
+
+using hid = std::int64_t;  // hid_t of HDF5 1.10+, kept out of the public headers
+
+/// Element types of datasets and attributes (the file stores them little endian).
+enum class Type { Int8, UInt8, Int16, UInt16, Int32, UInt32, Int64, UInt64, Float32, Float64 };
+
+template <class T>
+constexpr Type type_of() {
+  if constexpr (std::is_same_v<T, std::int8_t>) return Type::Int8;
+  else if constexpr (std::is_same_v<T, std::uint8_t>) return Type::UInt8;
+  else if constexpr (std::is_same_v<T, std::int16_t>) return Type::Int16;
+  else if constexpr (std::is_same_v<T, std::uint16_t>) return Type::UInt16;
+  else if constexpr (std::is_same_v<T, std::int32_t>) return Type::Int32;
+  else if constexpr (std::is_same_v<T, std::uint32_t>) return Type::UInt32;
+  else if constexpr (std::is_same_v<T, std::int64_t>) return Type::Int64;
+  else if constexpr (std::is_same_v<T, std::uint64_t>) return Type::UInt64;
+  else if constexpr (std::is_same_v<T, float>) return Type::Float32;
+  else {
+    static_assert(std::is_same_v<T, double>, "unsupported HDF5 element type");
+    return Type::Float64;
+  }
+}
+
+/// Maps a point-table scalar type to the HDF5 element type and back.
+Type to_h5(io::ScalarType type);
+io::ScalarType to_scalar(Type type);
+
+/// An owned HDF5 identifier (closed with the function matching its kind).
+class Handle {
+ public:
+  Handle() = default;
+  explicit Handle(hid id) : id_(id) {}
+  ~Handle();
+  Handle(Handle&& other) noexcept : id_(other.id_) { other.id_ = -1; }
+  Handle& operator=(Handle&& other) noexcept;
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  hid get() const { return id_; }
+  bool valid() const { return id_ >= 0; }
+
+ private:
+  hid id_ = -1;
+};
+
+struct DatasetOptions {
+  /// Rows per chunk (0: contiguous layout). Matched to tile reads by the callers.
+  std::uint64_t chunk_rows = 0;
+  /// Deflate level 1..9 with the shuffle filter; 0: no compression (needs chunk_rows > 0).
+  int deflate = 0;
+  /// Allocate all storage at creation, so later writes change no file metadata (resumable
+  /// runs rely on this: a kill during a step cannot damage the file's structure).
+  bool allocate_early = false;
+};
+
+class File;
+
+/// A dataset of `rows` rows of `width` elements each (shape [rows] when width is 1 and the
+/// dataset was created one-dimensional, else [rows, width]).
+class Dataset {
+ public:
+  std::uint64_t rows() const { return rows_; }
+  std::uint64_t width() const { return width_; }
+  Type type() const { return type_; }
+  const std::string& path() const { return path_; }
+
+  /// Rows [first, first + count) into `out` (count * width elements), converted to T.
+  template <class T>
+  void read_rows(std::uint64_t first, std::uint64_t count, T* out) const {
+    read_rows_raw(first, count, type_of<T>(), out);
+  }
+  template <class T>
+  void write_rows(std::uint64_t first, std::uint64_t count, const T* data) {
+    write_rows_raw(first, count, type_of<T>(), data);
+  }
+  /// The rows listed in `rows` (any order, no duplicates needed) into `out`, row after row.
+  template <class T>
+  void read_selected(std::span<const std::uint64_t> rows, T* out) const {
+    read_selected_raw(rows, type_of<T>(), out);
+  }
+  template <class T>
+  std::vector<T> read_all() const {
+    std::vector<T> v(static_cast<std::size_t>(rows_ * width_));
+    if (!v.empty()) read_rows(0, rows_, v.data());
+    return v;
+  }
+
+ private:
+  friend class File;
+  Dataset(const File* file, std::string path, Handle handle);
+  void read_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, void* out) const;
+  void write_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, const void* data);
+  void read_selected_raw(std::span<const std::uint64_t> rows, Type memory, void* out) const;
+  [[noreturn]] void fail(std::string_view problem) const;
+
+  const File* file_;
+  std::string path_;
+  Handle handle_;
+  std::uint64_t rows_ = 0, width_ = 1;
+  int rank_ = 1;
+  Type type_ = Type::Float64;
+};
+
+/// An open HDF5 file. Object paths are absolute ("/points/positions").
+class File {
+ public:
+  /// Creates (truncating) `path`. Throws IoError "<path>: cannot create HDF5 file".
+  static File create(const std::filesystem::path& path);
+  /// Opens an existing file. Throws IoError "<path>: not an HDF5 file" or "cannot open ...".
+  static File open(const std::filesystem::path& path, bool writable);
+
+  const std::filesystem::path& name() const { return name_; }
+  hid id() const { return handle_.get(); }
+
+  /// Writes every cached change to the file (H5Fflush) and syncs it to disk.
+  void flush();
+  /// Closes the file; later use is an error. Called by the destructor.
+  void close();
+
+  bool exists(std::string_view path) const;
+  /// Creates a group whose members keep their creation order.
+  void create_group(std::string_view path);
+  /// Names of the members of a group, in creation order when tracked, else by name.
+  std::vector<std::string> members(std::string_view group) const;
+
+  /// Creates a dataset [rows] (width 0) or [rows, width].
+  Dataset create_dataset(std::string_view path, Type type, std::uint64_t rows,
+                         std::uint64_t width, const DatasetOptions& options = {});
+  Dataset dataset(std::string_view path) const;
+  /// Copies an object (group or dataset, with everything below it) from another file.
+  void copy_from(const File& source, std::string_view source_path, std::string_view path);
+
+  /// Attributes on an object ("/" for the file).
+  void set_attribute(std::string_view object, std::string_view name, std::string_view value);
+  void set_attribute(std::string_view object, std::string_view name, double value);
+  void set_attribute(std::string_view object, std::string_view name, std::int64_t value);
+  void set_attribute(std::string_view object, std::string_view name, std::span<const double> values);
+  bool has_attribute(std::string_view object, std::string_view name) const;
+  std::string string_attribute(std::string_view object, std::string_view name) const;
+  double double_attribute(std::string_view object, std::string_view name) const;
+  std::int64_t int_attribute(std::string_view object, std::string_view name) const;
+  std::vector<double> doubles_attribute(std::string_view object, std::string_view name) const;
+
+  [[noreturn]] void fail(std::string_view object, std::string_view problem) const;
+
+ private:
+  File(std::filesystem::path name, Handle handle) : name_(std::move(name)), handle_(std::move(handle)) {}
+  Handle open_object(std::string_view object) const;
+
+  std::filesystem::path name_;
+  Handle handle_;
+};
+
+}  // namespace pointfair::tiles::h5

@@ -1,0 +1,70 @@
+#pragma once
+// The evolution of smooth() run out of core: tiles of a container (see container.hpp) are
+// streamed through memory with a halo, every step is committed atomically in the output
+// file, and the result is bit-identical to the in-core smooth() with the same parameters.
+//
+// How it stays exact:
+// - neighbourhoods are built per tile from the tile plus every point within a halo of
+//   width eps (grown until the (k+1)-th distance of every tile point is inside the halo when
+//   eps is unbounded); local arrays are sorted by original index, so the tie rule of the
+//   canonical order (ties by the smaller original index) is the in-core one;
+// - the automatic eps and lambda are the in-core reductions over the same strided samples
+//   (in original point order), computed from gathered values;
+// - each point's step reads only its own step-n position and its neighbours' (Jacobi), in
+//   the list order, so any tiling gives the same bits.
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+
+#include "pointfair/smooth.hpp"
+
+namespace pointfair::tiles {
+
+struct OutOfCoreOptions {
+  /// Bytes of working memory the run may use for its buffers (tile, halo, neighbour lists,
+  /// caches). libhdf5's chunk caches and the program itself come on top (a few tens of MiB).
+  std::uint64_t memory_budget = std::uint64_t{256} << 20;
+  /// Continue the interrupted run in "<output>.partial" instead of refusing to start.
+  bool resume = false;
+  /// Compute the per-point attributes (normals, curvatures, feature classes) at the end.
+  bool attributes = true;
+  /// Stop (as if killed) after this many steps committed by this call; < 0: never. For tests.
+  int stop_after_steps = -1;
+  /// Called with a phase name ("neighbors", "step", "attributes") and progress.
+  std::function<void(const std::string&, std::uint64_t, std::uint64_t)> progress;
+};
+
+struct OutOfCoreReport {
+  std::uint64_t points = 0;
+  std::size_t tiles = 0;
+  /// Steps done in total, and those already committed when this call started.
+  int steps = 0;
+  int resumed_from = 0;
+  bool finished = false;
+  double eps = 0.0;
+  /// The cut-off threshold of the last step (as SmoothReport::lambda).
+  double lambda = 0.0;
+  std::size_t degenerate = 0;
+  /// Neighbour lists kept in memory across steps (they fit in the budget) or re-read.
+  bool neighbors_cached = false;
+  /// The largest working set the run accounted for (bytes), and the largest tile + halo.
+  std::uint64_t peak_accounted_bytes = 0;
+  std::uint64_t largest_tile_with_halo = 0;
+  double seconds_neighbors = 0.0;
+  double seconds_steps = 0.0;
+  double seconds_attributes = 0.0;
+};
+
+/// Name of the working file of a run writing `output`: "<output>.partial".
+std::filesystem::path partial_name(const std::filesystem::path& output);
+
+/// Runs `params` on the container `input` (never modified) and writes a container with the
+/// run to `output`: first into partial_name(output), renamed to `output` when finished.
+/// Throws ParamError (bad or unsupported parameters: rebuilding neighbourhoods; a tile that
+/// does not fit in the budget; a partial run with other parameters), IoError (files).
+OutOfCoreReport smooth_out_of_core(const std::filesystem::path& input,
+                                   const std::filesystem::path& output, const SmoothParams& params,
+                                   const OutOfCoreOptions& options = {});
+
+}  // namespace pointfair::tiles

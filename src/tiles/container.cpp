@@ -1,0 +1,236 @@
+#include "pointfair/tiles/container.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "pointfair/version.hpp"
+
+namespace pointfair::tiles {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Row blocks for permuted writes: bounded scratch memory whatever the cloud size.
+constexpr std::uint64_t kBlockRows = 1u << 16;
+
+fs::path temporary_name(const fs::path& target) {
+  std::random_device rd;
+  std::string name = std::string(".") + target.filename().string();
+  name += std::string(".tmp-") + std::to_string(::getpid());
+  name += std::string("-") + std::to_string(rd());
+  return target.parent_path() / name;
+}
+
+}  // namespace
+
+void write_container(const fs::path& file, const io::PointTable& table, const ImportOptions& options) {
+  options.tiling.validate();
+  const std::uint64_t n = table.size();
+  for (const auto& a : table.attributes) {
+    if (a.values.size() != n)
+      throw io::IoError(file.string() + ": attribute " + a.name + " has " + std::to_string(a.values.size()) +
+                        " values for " + std::to_string(n) + " points");
+    if (a.name.empty() || a.name.find('/') != std::string::npos || a.name == ".")
+      throw io::IoError(file.string() + ": attribute name '" + a.name + "' cannot name an HDF5 dataset");
+  }
+  const Tiling tiling = make_tiling(table.positions, options.tiling);
+  const fs::path temp = temporary_name(file);
+  try {
+    h5::File f = h5::File::create(temp);
+    f.set_attribute("/", "pointfair_format", layout::format_name);
+    f.set_attribute("/", "format_version", layout::format_version);
+    f.set_attribute("/", "tool_version", version());
+    f.set_attribute("/", "source_name", options.source_name);
+    f.set_attribute("/", "source_size_bytes", static_cast<std::int64_t>(options.source_size));
+    f.set_attribute("/", "point_count", static_cast<std::int64_t>(n));
+    f.set_attribute("/", "tile_count", static_cast<std::int64_t>(tiling.tile_count()));
+    f.create_group(layout::points);
+    h5::DatasetOptions dopt;
+    dopt.chunk_rows = std::min<std::uint64_t>(options.chunk_rows, std::max<std::uint64_t>(n, 1));
+    dopt.deflate = options.deflate;
+
+    h5::Dataset pos = f.create_dataset(layout::positions, h5::Type::Float64, n, 3, dopt);
+    f.set_attribute(layout::positions, "source_type",
+                    table.position_type == io::ScalarType::Float32 ? "float32" : "float64");
+    h5::Dataset orig = f.create_dataset(layout::original_index, h5::Type::UInt64, n, 0, dopt);
+    std::vector<double> block;
+    std::vector<std::uint64_t> index_block;
+    for (std::uint64_t first = 0; first < n; first += kBlockRows) {
+      const std::uint64_t count = std::min(kBlockRows, n - first);
+      block.resize(count * 3);
+      for (std::uint64_t r = 0; r < count; ++r) {
+        const Vec3& p = table.positions[tiling.order[first + r]];
+        block[3 * r] = p.x();
+        block[3 * r + 1] = p.y();
+        block[3 * r + 2] = p.z();
+      }
+      pos.write_rows(first, count, block.data());
+      orig.write_rows(first, count, tiling.order.data() + first);
+    }
+    f.create_group(layout::attributes);
+    for (const auto& a : table.attributes) {
+      const std::string path = std::string(layout::attributes) + "/" + a.name;
+      h5::Dataset d = f.create_dataset(path, h5::to_h5(a.type), n, 0, dopt);
+      for (std::uint64_t first = 0; first < n; first += kBlockRows) {
+        const std::uint64_t count = std::min(kBlockRows, n - first);
+        block.resize(count);
+        for (std::uint64_t r = 0; r < count; ++r) block[r] = a.values[tiling.order[first + r]];
+        d.write_rows(first, count, block.data());
+      }
+    }
+    f.create_group(layout::tiles);
+    f.set_attribute(layout::tiles, "scheme", options.tiling.cell_size > 0 ? "grid" : "kd");
+    f.set_attribute(layout::tiles, "max_tile_points", static_cast<std::int64_t>(options.tiling.max_tile_points));
+    f.set_attribute(layout::tiles, "cell_size", options.tiling.cell_size);
+    h5::Dataset off = f.create_dataset(layout::tile_offsets, h5::Type::UInt64, tiling.offsets.size(), 0);
+    off.write_rows(0, tiling.offsets.size(), tiling.offsets.data());
+    h5::Dataset bnd = f.create_dataset(layout::tile_bounds, h5::Type::Float64, tiling.tile_count(), 6);
+    bnd.write_rows(0, tiling.tile_count(), tiling.bounds.data()->data());
+    f.flush();
+    f.close();
+    std::error_code ec;
+    fs::rename(temp, file, ec);
+    if (ec) throw io::IoError(file.string() + ": cannot rename the finished file into place: " + ec.message());
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(temp, ec);
+    throw;
+  }
+}
+
+std::uint64_t point_count(const h5::File& file) { return file.dataset(layout::positions).rows(); }
+
+TileTable read_tile_table(const h5::File& file) {
+  if (!file.exists("/") || !file.has_attribute("/", "pointfair_format") ||
+      file.string_attribute("/", "pointfair_format") != layout::format_name)
+    file.fail("/", "not a pointfair container (no pointfair_format attribute)");
+  const std::int64_t v = file.int_attribute("/", "format_version");
+  if (v != layout::format_version)
+    file.fail("/", "container format version " + std::to_string(v) + " is not supported (expected " +
+                       std::to_string(layout::format_version) + ")");
+  TileTable t;
+  const h5::Dataset off = file.dataset(layout::tile_offsets);
+  const h5::Dataset bnd = file.dataset(layout::tile_bounds);
+  t.offsets = off.read_all<std::uint64_t>();
+  if (bnd.width() != 6 || t.offsets.size() != bnd.rows() + 1)
+    file.fail(layout::tile_bounds, "tile table shapes disagree");
+  t.bounds.resize(bnd.rows());
+  if (!t.bounds.empty()) bnd.read_rows(0, bnd.rows(), t.bounds.data()->data());
+  const std::uint64_t n = point_count(file);
+  if (t.offsets.front() != 0 || t.offsets.back() != n || !std::is_sorted(t.offsets.begin(), t.offsets.end()))
+    file.fail(layout::tile_offsets, "tile offsets do not cover the points");
+  return t;
+}
+
+bool has_finished_run(const h5::File& file) {
+  if (!file.exists(layout::run_state)) return false;
+  const auto state = file.dataset(layout::run_state).read_all<std::int64_t>();
+  return state.size() >= 4 && state[3] == 1;
+}
+
+namespace {
+
+// Rows [first, first + count) of `order` scattered into original positions, or in place.
+template <class T>
+void place(std::vector<T>& out, const std::vector<T>& block, std::uint64_t first, std::uint64_t width,
+           const std::vector<std::uint64_t>* order) {
+  const std::uint64_t count = block.size() / width;
+  for (std::uint64_t r = 0; r < count; ++r) {
+    const std::uint64_t to = order ? (*order)[first + r] : first + r;
+    for (std::uint64_t c = 0; c < width; ++c) out[to * width + c] = block[r * width + c];
+  }
+}
+
+std::vector<double> read_ordered(const h5::Dataset& d, const std::vector<std::uint64_t>* order) {
+  const std::uint64_t n = d.rows(), w = d.width();
+  std::vector<double> out(n * w), block;
+  for (std::uint64_t first = 0; first < n; first += kBlockRows) {
+    const std::uint64_t count = std::min(kBlockRows, n - first);
+    block.resize(count * w);
+    d.read_rows(first, count, block.data());
+    place(out, block, first, w, order);
+  }
+  return out;
+}
+
+std::vector<std::uint64_t> read_order(const h5::File& f, std::uint64_t n) {
+  std::vector<std::uint64_t> order = f.dataset(layout::original_index).read_all<std::uint64_t>();
+  if (order.size() != n) f.fail(layout::original_index, "size differs from the positions");
+  std::vector<bool> seen(n, false);
+  for (const std::uint64_t i : order) {
+    if (i >= n || seen[i]) f.fail(layout::original_index, "not a permutation of the rows");
+    seen[i] = true;
+  }
+  return order;
+}
+
+std::vector<Vec3> to_vec3(const std::vector<double>& xyz) {
+  std::vector<Vec3> v(xyz.size() / 3);
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = Vec3(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]);
+  return v;
+}
+
+}  // namespace
+
+io::PointTable read_container(const fs::path& file, const ReadContainerOptions& options) {
+  const h5::File f = h5::File::open(file, false);
+  read_tile_table(f);
+  const std::uint64_t n = point_count(f);
+  std::vector<std::uint64_t> order;
+  if (options.original_order) order = read_order(f, n);
+  const auto* ord = options.original_order ? &order : nullptr;
+  std::string positions_path = layout::positions;
+  if (options.result_positions && has_finished_run(f))
+    positions_path = f.string_attribute(layout::run, "result_positions");
+  io::PointTable table;
+  const h5::Dataset pos = f.dataset(positions_path);
+  if (pos.width() != 3 || pos.rows() != n) f.fail(positions_path, "expected an [n, 3] array of positions");
+  table.positions = to_vec3(read_ordered(pos, ord));
+  table.position_type = f.has_attribute(layout::positions, "source_type") &&
+                                f.string_attribute(layout::positions, "source_type") == "float32"
+                            ? io::ScalarType::Float32
+                            : io::ScalarType::Float64;
+  if (f.exists(layout::attributes)) {
+    for (const std::string& name : f.members(layout::attributes)) {
+      const std::string path = std::string(layout::attributes) + "/" + name;
+      const h5::Dataset d = f.dataset(path);
+      if (d.rows() != n || d.width() != 1) f.fail(path, "expected one value per point");
+      table.attributes.push_back({name, h5::to_scalar(d.type()), read_ordered(d, ord)});
+    }
+  }
+  return table;
+}
+
+PointAttributes read_run_attributes(const fs::path& file, bool original_order) {
+  const h5::File f = h5::File::open(file, false);
+  read_tile_table(f);
+  if (!has_finished_run(f)) f.fail(layout::run, "no finished smoothing run in this file");
+  if (!f.exists(std::string(layout::run_attributes) + "/k1")) f.fail(layout::run_attributes, "the run wrote no attributes");
+  const std::uint64_t n = point_count(f);
+  std::vector<std::uint64_t> order;
+  if (original_order) order = read_order(f, n);
+  const auto* ord = original_order ? &order : nullptr;
+  auto column = [&](const char* name) {
+    return read_ordered(f.dataset(std::string(layout::run_attributes) + "/" + name), ord);
+  };
+  PointAttributes a;
+  a.normal = to_vec3(column("normal"));
+  a.d1 = to_vec3(column("d1"));
+  a.d2 = to_vec3(column("d2"));
+  a.k1 = column("k1");
+  a.k2 = column("k2");
+  a.mean_curvature = column("mean_curvature");
+  a.laplacian_norm = column("laplacian_norm");
+  const std::vector<double> feature = column("feature_class");
+  a.feature.resize(feature.size());
+  for (std::size_t i = 0; i < feature.size(); ++i) a.feature[i] = static_cast<FeatureClass>(static_cast<int>(feature[i]));
+  if (f.has_attribute(layout::run_attributes, "degenerate"))
+    a.degenerate = static_cast<std::size_t>(f.int_attribute(layout::run_attributes, "degenerate"));
+  return a;
+}
+
+}  // namespace pointfair::tiles

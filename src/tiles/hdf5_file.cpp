@@ -1,0 +1,444 @@
+// The HDF5 C API, wrapped: handles, datasets by rows, attributes, errors as io::IoError.
+#include "pointfair/tiles/hdf5_file.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <mutex>
+
+#include <hdf5.h>
+
+namespace pointfair::tiles::h5 {
+namespace {
+
+static_assert(std::is_same_v<hid, hid_t>, "hid_t is 64 bits since HDF5 1.10");
+
+// libhdf5 prints its error stack to stderr by default; our errors are one line each.
+void quiet_hdf5() {
+  static std::once_flag once;
+  std::call_once(once, [] { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); });
+}
+
+hid_t memory_type(Type t) {
+  switch (t) {
+    case Type::Int8: return H5T_NATIVE_INT8;
+    case Type::UInt8: return H5T_NATIVE_UINT8;
+    case Type::Int16: return H5T_NATIVE_INT16;
+    case Type::UInt16: return H5T_NATIVE_UINT16;
+    case Type::Int32: return H5T_NATIVE_INT32;
+    case Type::UInt32: return H5T_NATIVE_UINT32;
+    case Type::Int64: return H5T_NATIVE_INT64;
+    case Type::UInt64: return H5T_NATIVE_UINT64;
+    case Type::Float32: return H5T_NATIVE_FLOAT;
+    case Type::Float64: return H5T_NATIVE_DOUBLE;
+  }
+  return H5T_NATIVE_DOUBLE;
+}
+
+hid_t file_type(Type t) {
+  switch (t) {
+    case Type::Int8: return H5T_STD_I8LE;
+    case Type::UInt8: return H5T_STD_U8LE;
+    case Type::Int16: return H5T_STD_I16LE;
+    case Type::UInt16: return H5T_STD_U16LE;
+    case Type::Int32: return H5T_STD_I32LE;
+    case Type::UInt32: return H5T_STD_U32LE;
+    case Type::Int64: return H5T_STD_I64LE;
+    case Type::UInt64: return H5T_STD_U64LE;
+    case Type::Float32: return H5T_IEEE_F32LE;
+    case Type::Float64: return H5T_IEEE_F64LE;
+  }
+  return H5T_IEEE_F64LE;
+}
+
+// The element type of a stored dataset, or nullopt-like false if it is not one of ours.
+bool classify(hid_t type, Type& out) {
+  const H5T_class_t cls = H5Tget_class(type);
+  const std::size_t size = H5Tget_size(type);
+  if (cls == H5T_FLOAT) {
+    if (size == 4) { out = Type::Float32; return true; }
+    if (size == 8) { out = Type::Float64; return true; }
+    return false;
+  }
+  if (cls != H5T_INTEGER) return false;
+  const bool is_signed = H5Tget_sign(type) == H5T_SGN_2;
+  switch (size) {
+    case 1: out = is_signed ? Type::Int8 : Type::UInt8; return true;
+    case 2: out = is_signed ? Type::Int16 : Type::UInt16; return true;
+    case 4: out = is_signed ? Type::Int32 : Type::UInt32; return true;
+    case 8: out = is_signed ? Type::Int64 : Type::UInt64; return true;
+    default: return false;
+  }
+}
+
+std::string object_or_root(std::string_view object) {
+  return object.empty() ? std::string("/") : std::string(object);
+}
+
+}  // namespace
+
+Type to_h5(io::ScalarType t) {
+  switch (t) {
+    case io::ScalarType::Int8: return Type::Int8;
+    case io::ScalarType::UInt8: return Type::UInt8;
+    case io::ScalarType::Int16: return Type::Int16;
+    case io::ScalarType::UInt16: return Type::UInt16;
+    case io::ScalarType::Int32: return Type::Int32;
+    case io::ScalarType::UInt32: return Type::UInt32;
+    case io::ScalarType::Float32: return Type::Float32;
+    case io::ScalarType::Float64: return Type::Float64;
+  }
+  return Type::Float64;
+}
+
+io::ScalarType to_scalar(Type t) {
+  switch (t) {
+    case Type::Int8: return io::ScalarType::Int8;
+    case Type::UInt8: return io::ScalarType::UInt8;
+    case Type::Int16: return io::ScalarType::Int16;
+    case Type::UInt16: return io::ScalarType::UInt16;
+    case Type::Int32: return io::ScalarType::Int32;
+    case Type::UInt32: return io::ScalarType::UInt32;
+    case Type::Float32: return io::ScalarType::Float32;
+    case Type::Int64: case Type::UInt64: case Type::Float64: return io::ScalarType::Float64;
+  }
+  return io::ScalarType::Float64;
+}
+
+Handle::~Handle() {
+  if (id_ >= 0) H5Idec_ref(id_);
+}
+
+Handle& Handle::operator=(Handle&& other) noexcept {
+  if (this != &other) {
+    if (id_ >= 0) H5Idec_ref(id_);
+    id_ = other.id_;
+    other.id_ = -1;
+  }
+  return *this;
+}
+
+// ---- File -----------------------------------------------------------------------------------
+
+void File::fail(std::string_view object, std::string_view problem) const {
+  std::string message = name_.string();
+  if (!object.empty()) message += std::string(": ") + std::string(object);
+  message += std::string(": ") + std::string(problem);
+  throw io::IoError(message);
+}
+
+File File::create(const std::filesystem::path& path) {
+  quiet_hdf5();
+  Handle h(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT));
+  if (!h.valid()) {
+    throw io::IoError(path.string() + ": cannot create HDF5 file" +
+                      (errno != 0 ? std::string(": ") + std::strerror(errno) : std::string()));
+  }
+  return File(path, std::move(h));
+}
+
+File File::open(const std::filesystem::path& path, bool writable) {
+  quiet_hdf5();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec))
+    throw io::IoError(path.string() + ": cannot open: No such file or directory");
+  if (H5Fis_hdf5(path.c_str()) <= 0) throw io::IoError(path.string() + ": not an HDF5 file");
+  Handle h(H5Fopen(path.c_str(), writable ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT));
+  if (!h.valid()) throw io::IoError(path.string() + ": cannot open HDF5 file (damaged or locked)");
+  return File(path, std::move(h));
+}
+
+void File::flush() {
+  if (H5Fflush(handle_.get(), H5F_SCOPE_GLOBAL) < 0) fail("", "flush failed");
+  // H5Fflush hands the data to the kernel; make it durable as well.
+  const int fd = ::open(name_.c_str(), O_RDONLY);
+  if (fd >= 0) {
+    ::fsync(fd);
+    ::close(fd);
+  }
+}
+
+void File::close() { handle_ = Handle(); }
+
+bool File::exists(std::string_view path) const {
+  if (path == "/" || path.empty()) return true;
+  // H5Lexists needs every parent to exist: walk the path.
+  std::size_t pos = 1;
+  while (pos <= path.size()) {
+    const std::size_t next = std::min(path.find('/', pos), path.size());
+    const std::string prefix(path.substr(0, next));
+    if (H5Lexists(handle_.get(), prefix.c_str(), H5P_DEFAULT) <= 0) return false;
+    pos = next + 1;
+  }
+  return true;
+}
+
+void File::create_group(std::string_view path) {
+  Handle gcpl(H5Pcreate(H5P_GROUP_CREATE));
+  H5Pset_link_creation_order(gcpl.get(), H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED);
+  const std::string p(path);
+  Handle g(H5Gcreate2(handle_.get(), p.c_str(), H5P_DEFAULT, gcpl.get(), H5P_DEFAULT));
+  if (!g.valid()) fail(path, "cannot create group");
+}
+
+std::vector<std::string> File::members(std::string_view group) const {
+  const std::string p = object_or_root(group);
+  Handle g(H5Gopen2(handle_.get(), p.c_str(), H5P_DEFAULT));
+  if (!g.valid()) fail(group, "no such group");
+  H5G_info_t info;
+  if (H5Gget_info(g.get(), &info) < 0) fail(group, "cannot read group");
+  unsigned flags = 0;
+  Handle gcpl(H5Gget_create_plist(g.get()));
+  H5Pget_link_creation_order(gcpl.get(), &flags);
+  const H5_index_t index = (flags & H5P_CRT_ORDER_INDEXED) ? H5_INDEX_CRT_ORDER : H5_INDEX_NAME;
+  std::vector<std::string> names;
+  for (hsize_t i = 0; i < info.nlinks; ++i) {
+    const ssize_t len = H5Lget_name_by_idx(g.get(), ".", index, H5_ITER_INC, i, nullptr, 0, H5P_DEFAULT);
+    if (len < 0) fail(group, "cannot list members");
+    std::string name(static_cast<std::size_t>(len), '\0');
+    H5Lget_name_by_idx(g.get(), ".", index, H5_ITER_INC, i, name.data(), name.size() + 1, H5P_DEFAULT);
+    names.push_back(std::move(name));
+  }
+  return names;
+}
+
+Dataset File::create_dataset(std::string_view path, Type type, std::uint64_t rows,
+                             std::uint64_t width, const DatasetOptions& options) {
+  const int rank = width == 0 ? 1 : 2;
+  const hsize_t dims[2] = {rows, width == 0 ? 1 : width};
+  Handle space(H5Screate_simple(rank, dims, nullptr));
+  Handle dcpl(H5Pcreate(H5P_DATASET_CREATE));
+  H5Pset_obj_track_times(dcpl.get(), false);  // identical runs give identical files
+  if (options.chunk_rows > 0 && rows > 0) {
+    const hsize_t chunk[2] = {std::min<hsize_t>(options.chunk_rows, rows), dims[1]};
+    H5Pset_chunk(dcpl.get(), rank, chunk);
+    if (options.deflate > 0) {
+      H5Pset_shuffle(dcpl.get());
+      H5Pset_deflate(dcpl.get(), static_cast<unsigned>(options.deflate));
+    }
+  }
+  if (options.allocate_early) {
+    H5Pset_alloc_time(dcpl.get(), H5D_ALLOC_TIME_EARLY);
+    H5Pset_fill_time(dcpl.get(), H5D_FILL_TIME_NEVER);
+  }
+  const std::string p(path);
+  Handle d(H5Dcreate2(handle_.get(), p.c_str(), file_type(type), space.get(), H5P_DEFAULT,
+                      dcpl.get(), H5P_DEFAULT));
+  if (!d.valid()) fail(path, "cannot create dataset");
+  return Dataset(this, p, std::move(d));
+}
+
+Dataset File::dataset(std::string_view path) const {
+  if (!exists(path)) fail(path, "missing dataset");
+  const std::string p(path);
+  Handle d(H5Dopen2(handle_.get(), p.c_str(), H5P_DEFAULT));
+  if (!d.valid()) fail(path, "cannot open dataset");
+  return Dataset(this, p, std::move(d));
+}
+
+void File::copy_from(const File& source, std::string_view source_path, std::string_view path) {
+  const std::string s(source_path), d(path);
+  if (H5Ocopy(source.id(), s.c_str(), handle_.get(), d.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
+    fail(path, "cannot copy " + s + " from " + source.name().string());
+}
+
+Handle File::open_object(std::string_view object) const {
+  const std::string p = object_or_root(object);
+  Handle o(H5Oopen(handle_.get(), p.c_str(), H5P_DEFAULT));
+  if (!o.valid()) fail(object, "no such object");
+  return o;
+}
+
+namespace {
+
+void write_attribute(const File& f, hid_t obj, std::string_view object, std::string_view name,
+                     hid_t file_t, hid_t mem_t, hid_t space, const void* data) {
+  const std::string n(name);
+  if (H5Aexists(obj, n.c_str()) > 0) H5Adelete(obj, n.c_str());
+  Handle a(H5Acreate2(obj, n.c_str(), file_t, space, H5P_DEFAULT, H5P_DEFAULT));
+  if (!a.valid() || H5Awrite(a.get(), mem_t, data) < 0)
+    f.fail(object, "cannot write attribute " + n);
+}
+
+}  // namespace
+
+void File::set_attribute(std::string_view object, std::string_view name, std::string_view value) {
+  Handle obj = open_object(object);
+  Handle type(H5Tcopy(H5T_C_S1));
+  H5Tset_size(type.get(), std::max<std::size_t>(1, value.size()));
+  H5Tset_strpad(type.get(), H5T_STR_NULLPAD);
+  Handle space(H5Screate(H5S_SCALAR));
+  std::string padded(value);
+  if (padded.empty()) padded.push_back('\0');
+  write_attribute(*this, obj.get(), object, name, type.get(), type.get(), space.get(), padded.data());
+}
+
+void File::set_attribute(std::string_view object, std::string_view name, double value) {
+  Handle obj = open_object(object);
+  Handle space(H5Screate(H5S_SCALAR));
+  write_attribute(*this, obj.get(), object, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, space.get(), &value);
+}
+
+void File::set_attribute(std::string_view object, std::string_view name, std::int64_t value) {
+  Handle obj = open_object(object);
+  Handle space(H5Screate(H5S_SCALAR));
+  write_attribute(*this, obj.get(), object, name, H5T_STD_I64LE, H5T_NATIVE_INT64, space.get(), &value);
+}
+
+void File::set_attribute(std::string_view object, std::string_view name, std::span<const double> values) {
+  Handle obj = open_object(object);
+  const hsize_t dims[1] = {values.size()};
+  Handle space(H5Screate_simple(1, dims, nullptr));
+  write_attribute(*this, obj.get(), object, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, space.get(),
+                  values.data());
+}
+
+bool File::has_attribute(std::string_view object, std::string_view name) const {
+  Handle obj = open_object(object);
+  const std::string n(name);
+  return H5Aexists(obj.get(), n.c_str()) > 0;
+}
+
+namespace {
+
+Handle open_attribute(const File& f, hid_t obj, std::string_view object, std::string_view name) {
+  const std::string n(name);
+  if (H5Aexists(obj, n.c_str()) <= 0) f.fail(object, "missing attribute " + n);
+  Handle a(H5Aopen(obj, n.c_str(), H5P_DEFAULT));
+  if (!a.valid()) f.fail(object, "cannot open attribute " + n);
+  return a;
+}
+
+}  // namespace
+
+std::string File::string_attribute(std::string_view object, std::string_view name) const {
+  Handle obj = open_object(object);
+  Handle a = open_attribute(*this, obj.get(), object, name);
+  Handle type(H5Aget_type(a.get()));
+  if (H5Tget_class(type.get()) != H5T_STRING) fail(object, "attribute " + std::string(name) + " is not a string");
+  if (H5Tis_variable_str(type.get()) > 0) {
+    char* text = nullptr;
+    Handle mem(H5Tcopy(H5T_C_S1));
+    H5Tset_size(mem.get(), H5T_VARIABLE);
+    if (H5Aread(a.get(), mem.get(), &text) < 0) fail(object, "cannot read attribute " + std::string(name));
+    std::string s = text ? text : "";
+    H5free_memory(text);
+    return s;
+  }
+  const std::size_t size = H5Tget_size(type.get());
+  std::string s(size, '\0');
+  if (H5Aread(a.get(), type.get(), s.data()) < 0) fail(object, "cannot read attribute " + std::string(name));
+  s.resize(std::strlen(s.c_str()));
+  return s;
+}
+
+double File::double_attribute(std::string_view object, std::string_view name) const {
+  Handle obj = open_object(object);
+  Handle a = open_attribute(*this, obj.get(), object, name);
+  double v = 0;
+  if (H5Aread(a.get(), H5T_NATIVE_DOUBLE, &v) < 0) fail(object, "cannot read attribute " + std::string(name));
+  return v;
+}
+
+std::int64_t File::int_attribute(std::string_view object, std::string_view name) const {
+  Handle obj = open_object(object);
+  Handle a = open_attribute(*this, obj.get(), object, name);
+  std::int64_t v = 0;
+  if (H5Aread(a.get(), H5T_NATIVE_INT64, &v) < 0) fail(object, "cannot read attribute " + std::string(name));
+  return v;
+}
+
+std::vector<double> File::doubles_attribute(std::string_view object, std::string_view name) const {
+  Handle obj = open_object(object);
+  Handle a = open_attribute(*this, obj.get(), object, name);
+  Handle space(H5Aget_space(a.get()));
+  const hssize_t count = H5Sget_simple_extent_npoints(space.get());
+  std::vector<double> v(static_cast<std::size_t>(std::max<hssize_t>(0, count)));
+  if (!v.empty() && H5Aread(a.get(), H5T_NATIVE_DOUBLE, v.data()) < 0)
+    fail(object, "cannot read attribute " + std::string(name));
+  return v;
+}
+
+// ---- Dataset --------------------------------------------------------------------------------
+
+Dataset::Dataset(const File* file, std::string path, Handle handle)
+    : file_(file), path_(std::move(path)), handle_(std::move(handle)) {
+  Handle space(H5Dget_space(handle_.get()));
+  hsize_t dims[2] = {0, 1};
+  rank_ = H5Sget_simple_extent_ndims(space.get());
+  if (rank_ < 1 || rank_ > 2) fail("expected a one- or two-dimensional dataset");
+  H5Sget_simple_extent_dims(space.get(), dims, nullptr);
+  rows_ = dims[0];
+  width_ = rank_ == 2 ? dims[1] : 1;
+  Handle type(H5Dget_type(handle_.get()));
+  if (!classify(type.get(), type_)) fail("unsupported element type");
+}
+
+void Dataset::fail(std::string_view problem) const { file_->fail(path_, problem); }
+
+void Dataset::read_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, void* out) const {
+  if (count == 0) return;
+  if (first + count > rows_) fail("rows out of range");
+  Handle file_space(H5Dget_space(handle_.get()));
+  const hsize_t start[2] = {first, 0}, extent[2] = {count, width_};
+  H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, extent, nullptr);
+  Handle mem_space(H5Screate_simple(rank_, extent, nullptr));
+  if (H5Dread(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), H5P_DEFAULT, out) < 0)
+    fail("read failed (rows " + std::to_string(first) + ".." + std::to_string(first + count) + ")");
+}
+
+void Dataset::write_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, const void* data) {
+  if (count == 0) return;
+  if (first + count > rows_) fail("rows out of range");
+  Handle file_space(H5Dget_space(handle_.get()));
+  const hsize_t start[2] = {first, 0}, extent[2] = {count, width_};
+  H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, extent, nullptr);
+  Handle mem_space(H5Screate_simple(rank_, extent, nullptr));
+  if (H5Dwrite(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), H5P_DEFAULT, data) < 0)
+    fail("write failed (rows " + std::to_string(first) + ".." + std::to_string(first + count) + ")");
+}
+
+void Dataset::read_selected_raw(std::span<const std::uint64_t> rows, Type memory, void* out) const {
+  if (rows.empty()) return;
+  // Runs of consecutive rows become one hyperslab block each: far cheaper than point
+  // selections for the clustered rows of a halo.
+  Handle file_space(H5Dget_space(handle_.get()));
+  H5Sselect_none(file_space.get());
+  std::size_t i = 0;
+  bool sorted = true;
+  for (std::size_t j = 1; j < rows.size(); ++j) sorted = sorted && rows[j] > rows[j - 1];
+  if (!sorted) fail("read_selected needs strictly increasing rows");
+  if (rows.back() >= rows_) fail("rows out of range");
+  std::size_t runs = 1;
+  for (std::size_t j = 1; j < rows.size(); ++j) runs += rows[j] != rows[j - 1] + 1;
+  if (runs <= 32) {
+    // A few runs of consecutive rows: one hyperslab block each.
+    while (i < rows.size()) {
+      std::size_t j = i + 1;
+      while (j < rows.size() && rows[j] == rows[j - 1] + 1) ++j;
+      const hsize_t start[2] = {rows[i], 0}, extent[2] = {j - i, width_};
+      H5Sselect_hyperslab(file_space.get(), H5S_SELECT_OR, start, nullptr, extent, nullptr);
+      i = j;
+    }
+  } else {
+    // Many runs: a point selection (libhdf5 1.10 merges many hyperslab blocks slowly).
+    std::vector<hsize_t> coords(rows.size() * width_ * static_cast<std::size_t>(rank_));
+    std::size_t c = 0;
+    for (const std::uint64_t r : rows)
+      for (hsize_t w = 0; w < width_; ++w) {
+        coords[c++] = r;
+        if (rank_ == 2) coords[c++] = w;
+      }
+    if (H5Sselect_elements(file_space.get(), H5S_SELECT_SET, rows.size() * width_, coords.data()) < 0)
+      fail("cannot select rows");
+  }
+  const hsize_t mem_dims[2] = {rows.size(), width_};
+  Handle mem_space(H5Screate_simple(rank_, mem_dims, nullptr));
+  if (H5Dread(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), H5P_DEFAULT, out) < 0)
+    fail("read failed (" + std::to_string(rows.size()) + " selected rows)");
+}
+
+}  // namespace pointfair::tiles::h5

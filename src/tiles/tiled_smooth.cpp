@@ -1,0 +1,805 @@
+#include "pointfair/tiles/tiled_smooth.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <optional>
+#include <sstream>
+
+#include <Eigen/Geometry>
+
+#include "pointfair/kd_tree.hpp"
+#include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
+#include "pointfair/io/atomic_file.hpp"
+#include "pointfair/tiles/container.hpp"
+#include "pointfair/version.hpp"
+
+namespace pointfair::tiles {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Slots of /run/state, the commit record: one small contiguous dataset rewritten in place.
+enum StateSlot { kSetupDone = 0, kNeighborsDone = 1, kCompletedSteps = 2, kFinished = 3, kStateSize = 4 };
+
+// Rows read at a time when filtering whole tiles for halos.
+constexpr std::uint64_t kScanBlock = 1u << 15;
+// A computed distance is trusted to decide "inside the halo" only with this relative margin.
+constexpr double kHaloMargin = 1e-9;
+
+std::string positions_buffer(int parity) { return "/run/positions_" + std::to_string(parity); }
+
+// Every parameter that changes the result, as one line: stored in the run and compared on
+// --resume.
+std::string parameters_key(const SmoothParams& p) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "k=" << p.neighbors.k << " eps=" << p.neighbors.eps << " eps_factor=" << p.neighbors.eps_auto_factor
+    << " steps=" << p.steps << " rebuild=" << p.rebuild_interval << " lambda_every_step=" << p.lambda_every_step
+    << " flow=" << static_cast<int>(p.flow.flow) << " cutoff=" << static_cast<int>(p.flow.cutoff)
+    << " lambda=" << p.flow.lambda << " lambda_factor=" << p.flow.lambda_auto_factor << " tau=" << p.flow.tau
+    << " constrain_normal=" << p.flow.constrain_normal << " feature_gated=" << p.flow.feature_gated
+    << " features=" << static_cast<int>(p.flow.features.mode) << " quotient=" << p.flow.features.quotient
+    << " feature_threshold=" << p.flow.features.threshold
+    << " weights=" << static_cast<int>(p.flow.weingarten.weights)
+    << " density_floor=" << p.flow.weingarten.density_floor;
+  return s.str();
+}
+
+// Bytes held by a vector.
+template <class T>
+std::uint64_t bytes(const std::vector<T>& v) {
+  return v.capacity() * sizeof(T);
+}
+
+// A tile's points plus its halo, sorted by original index (for neighbourhood building).
+struct LocalSet {
+  std::vector<Vec3> positions;
+  std::vector<std::uint64_t> rows;      // container rows
+  std::vector<std::uint64_t> original;  // original indices
+  std::vector<Index> queries;           // local indices of the tile's own points, in row order
+  std::uint64_t bytes() const {
+    return tiles::bytes(positions) + tiles::bytes(rows) + tiles::bytes(original) + tiles::bytes(queries);
+  }
+};
+
+// The neighbour lists of one tile in local indices: local index < tile size is row
+// tile_begin + index, else halo_rows[index - tile size].
+struct TileNeighbors {
+  Neighborhoods local;
+  std::vector<std::uint64_t> halo_rows;
+  std::uint64_t bytes() const {
+    return tiles::bytes(local.indices) + tiles::bytes(local.counts) + tiles::bytes(halo_rows);
+  }
+};
+
+class Run {
+ public:
+  Run(const fs::path& input, const fs::path& output, const SmoothParams& params, const OutOfCoreOptions& options)
+      : input_path_(input), output_(output), params_(params), options_(options) {}
+
+  OutOfCoreReport run();
+
+ private:
+  void open_or_create();
+  void create(const fs::path& partial);
+  void commit_state();
+  void build_neighbors();
+  double resolve_eps_tiled();
+  double first_halo(std::size_t t) const;
+  bool covers_all(std::size_t t, double halo) const;
+  LocalSet gather_local(std::size_t t, double halo) const;
+  void prepare_lambda_sample();
+  double sample_lambda() const;
+  void load_sample_positions(const h5::Dataset& positions);
+  TileNeighbors tile_neighbors(std::size_t t) const;
+  const TileNeighbors& neighbors_of(std::size_t t, TileNeighbors& scratch);
+  void read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
+                           std::vector<Vec3>& local) const;
+  bool run_steps(OutOfCoreReport& report);
+  void write_attributes(double lambda);
+  void finish();
+  void account(std::uint64_t working);
+  std::uint64_t persistent_bytes() const {
+    return cache_bytes_ + bytes(tiles_.offsets) + bytes(tiles_.bounds) + bytes(sample_rows_) +
+           bytes(sample_neighbors_) + bytes(sample_counts_) + bytes(sample_local_) + bytes(gather_rows_) +
+           bytes(gather_positions_);
+  }
+  void progress(const std::string& phase, std::uint64_t done, std::uint64_t total) const {
+    if (options_.progress) options_.progress(phase, done, total);
+  }
+  h5::File& file() { return *file_; }
+  const h5::File& file() const { return *file_; }
+  int k() const { return params_.neighbors.k; }
+  bool auto_lambda_on() const { return params_.flow.lambda == 0.0; }
+  std::string source_of_step(int step) const {
+    return step == 0 ? std::string(layout::positions) : positions_buffer(step % 2);
+  }
+
+  fs::path input_path_, output_;
+  SmoothParams params_;
+  OutOfCoreOptions options_;
+  std::optional<h5::File> file_;
+  TileTable tiles_;
+  std::uint64_t n_ = 0;
+  std::vector<std::int64_t> state_ = std::vector<std::int64_t>(kStateSize, 0);
+  double eps_ = 0.0;
+  Box global_bounds_{};
+  std::uint64_t max_tile_rows_ = 0;
+
+  // The lambda sample: rows of the sampled points (in sample order), the local indices (into
+  // gather_rows_) of each sample and of its neighbours, and the step-n positions of
+  // gather_rows_.
+  std::vector<std::uint64_t> sample_rows_;
+  std::vector<Index> sample_local_;
+  std::vector<Index> sample_neighbors_;
+  std::vector<std::uint16_t> sample_counts_;
+  std::vector<std::uint64_t> gather_rows_;
+  std::vector<Vec3> gather_positions_;
+
+  // Neighbour lists of every tile, kept while they fit in part of the budget.
+  std::vector<TileNeighbors> cache_;
+  std::vector<char> cached_;
+  bool caching_ = true;
+  std::uint64_t cache_bytes_ = 0;
+  std::uint64_t peak_ = 0;
+  std::uint64_t max_working_ = 0;
+  std::uint64_t largest_local_ = 0;
+};
+
+void Run::account(std::uint64_t working) {
+  max_working_ = std::max(max_working_, working);
+  const std::uint64_t total = persistent_bytes() + working;
+  peak_ = std::max(peak_, total);
+  if (total > options_.memory_budget)
+    throw ParamError("the memory budget of " + std::to_string(options_.memory_budget >> 20) +
+                     " MiB is too small for the tiles of " + input_path_.string() + " (a tile needs " +
+                     std::to_string((total >> 20) + 1) +
+                     " MiB): import it again with a smaller budget or smaller tiles");
+}
+
+void Run::commit_state() {
+  // Everything written before this point reaches the file first; then the small state
+  // record is overwritten in place (its storage was allocated when the file was created, so
+  // the write changes no metadata).
+  file().flush();
+  file().dataset(layout::run_state).write_rows(0, kStateSize, state_.data());
+  file().flush();
+}
+
+void Run::create(const fs::path& partial) {
+  const h5::File in = h5::File::open(input_path_, false);
+  file_.emplace(h5::File::create(partial));
+  h5::File& f = file();
+  f.create_group(layout::run);
+  h5::DatasetOptions early;
+  early.allocate_early = true;
+  f.create_dataset(layout::run_state, h5::Type::Int64, kStateSize, 0, early)
+      .write_rows(0, kStateSize, state_.data());
+  for (const char* name : {"pointfair_format", "source_name"})
+    f.set_attribute("/", name, in.string_attribute("/", name));
+  for (const char* name : {"format_version", "source_size_bytes", "point_count", "tile_count"})
+    f.set_attribute("/", name, in.int_attribute("/", name));
+  f.set_attribute("/", "tool_version", version());
+  f.copy_from(in, layout::points, layout::points);
+  f.copy_from(in, layout::tiles, layout::tiles);
+
+  f.set_attribute(layout::run, "parameters", parameters_key(params_));
+  f.set_attribute(layout::run, "input_name", input_path_.filename().string());
+  f.set_attribute(layout::run, "input_size_bytes", static_cast<std::int64_t>(fs::file_size(input_path_)));
+  f.set_attribute(layout::run, "tool_version", version());
+  f.set_attribute(layout::run, "k", static_cast<std::int64_t>(params_.neighbors.k));
+  f.set_attribute(layout::run, "eps_requested", params_.neighbors.eps);
+  f.set_attribute(layout::run, "eps_factor", params_.neighbors.eps_auto_factor);
+  f.set_attribute(layout::run, "steps", static_cast<std::int64_t>(params_.steps));
+  f.set_attribute(layout::run, "tau", params_.flow.tau);
+  f.set_attribute(layout::run, "flow", params_.flow.flow == Flow::Isotropic ? "iso" : "aniso");
+  f.set_attribute(layout::run, "cutoff", params_.flow.cutoff == Cutoff::Sharp ? "sharp" : "continuous");
+  f.set_attribute(layout::run, "lambda_requested", params_.flow.lambda);
+  f.set_attribute(layout::run, "lambda_factor", params_.flow.lambda_auto_factor);
+  f.set_attribute(layout::run, "lambda_every_step", static_cast<std::int64_t>(params_.lambda_every_step));
+  f.set_attribute(layout::run, "constrain_normal", static_cast<std::int64_t>(params_.flow.constrain_normal));
+  f.set_attribute(layout::run, "feature_gated", static_cast<std::int64_t>(params_.flow.feature_gated));
+  f.set_attribute(layout::run, "features",
+                  params_.flow.features.mode == FeatureMode::None           ? "none"
+                  : params_.flow.features.mode == FeatureMode::EdgeQuotient ? "quotient"
+                                                                            : "maxcurv");
+  f.set_attribute(layout::run, "edge_quotient", params_.flow.features.quotient);
+  f.set_attribute(layout::run, "feature_threshold", params_.flow.features.threshold);
+  f.set_attribute(layout::run, "weights",
+                  params_.flow.weingarten.weights == AngularWeights::Paper ? "paper" : "uniform");
+  f.set_attribute(layout::run, "density_floor", params_.flow.weingarten.density_floor);
+
+  f.create_dataset(layout::run_eps, h5::Type::Float64, 1, 0, early);
+  f.create_dataset(layout::run_step_log, h5::Type::Float64, static_cast<std::uint64_t>(std::max(1, params_.steps)),
+                   2, early);
+  h5::DatasetOptions rows = early;
+  rows.chunk_rows = std::min<std::uint64_t>(65536, std::max<std::uint64_t>(n_, 1));
+  f.create_group("/run/neighbors");
+  f.create_dataset(layout::neighbor_rows, h5::Type::UInt32, n_, static_cast<std::uint64_t>(k()), rows);
+  f.create_dataset(layout::neighbor_counts, h5::Type::UInt16, n_, 0, rows);
+  f.create_dataset(positions_buffer(0), h5::Type::Float64, n_, 3, rows);
+  f.create_dataset(positions_buffer(1), h5::Type::Float64, n_, 3, rows);
+  if (options_.attributes) {
+    f.create_group(layout::run_attributes);
+    const std::string a = layout::run_attributes;
+    for (const char* name : {"normal", "d1", "d2"}) f.create_dataset(a + "/" + name, h5::Type::Float64, n_, 3, rows);
+    for (const char* name : {"k1", "k2", "mean_curvature", "laplacian_norm"})
+      f.create_dataset(a + "/" + name, h5::Type::Float64, n_, 0, rows);
+    f.create_dataset(a + "/feature_class", h5::Type::UInt8, n_, 0, rows);
+  }
+  state_.assign(kStateSize, 0);
+  state_[kSetupDone] = 1;
+  commit_state();
+}
+
+void Run::open_or_create() {
+  {
+    const h5::File in = h5::File::open(input_path_, false);
+    tiles_ = read_tile_table(in);
+    n_ = point_count(in);
+  }
+  require(n_ < std::numeric_limits<Index>::max(), "a run holds fewer than 2^32-1 points");
+  for (std::size_t t = 0; t < tiles_.size(); ++t) max_tile_rows_ = std::max(max_tile_rows_, tiles_.rows(t));
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  global_bounds_ = {inf, inf, inf, -inf, -inf, -inf};
+  for (const Box& b : tiles_.bounds)
+    for (std::size_t c = 0; c < 3; ++c) {
+      global_bounds_[c] = std::min(global_bounds_[c], b[c]);
+      global_bounds_[c + 3] = std::max(global_bounds_[c + 3], b[c + 3]);
+    }
+
+  const fs::path partial = partial_name(output_);
+  std::error_code ec;
+  if (fs::exists(partial, ec)) {
+    if (!options_.resume)
+      throw io::IoError(partial.string() +
+                        ": an interrupted run is in the way: pass --resume to continue it, or remove the file");
+    bool usable = false;
+    try {
+      file_.emplace(h5::File::open(partial, true));
+      if (file().exists(layout::run_state)) {
+        const auto st = file().dataset(layout::run_state).read_all<std::int64_t>();
+        if (st.size() == kStateSize && st[kSetupDone] == 1) {
+          state_ = st;
+          usable = true;
+        }
+      }
+    } catch (const io::IoError&) {
+      usable = false;  // killed while it was being created: start again
+    }
+    if (usable) {
+      const std::string stored = file().string_attribute(layout::run, "parameters");
+      if (stored != parameters_key(params_))
+        throw ParamError(partial.string() + " was started with other parameters (" + stored +
+                         "); run with those, or remove the file");
+      if (point_count(file()) != n_)
+        throw io::IoError(partial.string() + ": the interrupted run belongs to another input");
+      return;
+    }
+    file_.reset();
+    fs::remove(partial, ec);
+  }
+  create(partial);
+}
+
+// ---- neighbourhoods ---------------------------------------------------------------------------
+
+bool Run::covers_all(std::size_t t, double halo) const {
+  const Box& b = tiles_.bounds[t];
+  for (std::size_t c = 0; c < 3; ++c)
+    if (b[c] - halo > global_bounds_[c] || b[c + 3] + halo < global_bounds_[c + 3]) return false;
+  return true;
+}
+
+double Run::first_halo(std::size_t t) const {
+  if (std::isfinite(eps_) && eps_ > 0.0) return eps_ * (1.0 + 1e-6);
+  // Unbounded eps: start from the spacing a surface patch of the tile's size would have,
+  // and grow until every (k+1)-th neighbour lies inside the halo.
+  const Box& b = tiles_.bounds[t];
+  const double side = std::max({b[3] - b[0], b[4] - b[1], b[5] - b[2], 0.0});
+  const double diag = std::hypot(global_bounds_[3] - global_bounds_[0], global_bounds_[4] - global_bounds_[1],
+                                 global_bounds_[5] - global_bounds_[2]);
+  const double rows = static_cast<double>(std::max<std::uint64_t>(1, tiles_.rows(t)));
+  return std::max(2.0 * side * std::sqrt((k() + 1.0) / rows), 1e-12 * (1.0 + diag));
+}
+
+LocalSet Run::gather_local(std::size_t t, double halo) const {
+  const h5::Dataset pos = file().dataset(layout::positions);
+  const h5::Dataset orig = file().dataset(layout::original_index);
+  const Box& own = tiles_.bounds[t];
+  Box grown = own;
+  for (std::size_t c = 0; c < 3; ++c) {
+    grown[c] -= halo;
+    grown[c + 3] += halo;
+  }
+  struct Entry {
+    std::uint64_t original, row;
+    Vec3 p;
+  };
+  std::vector<Entry> entries;
+  std::vector<double> xyz;
+  std::vector<std::uint64_t> index;
+  for (std::size_t u = 0; u < tiles_.size(); ++u) {
+    if (tiles_.rows(u) == 0 || (u != t && !intersects(own, halo, tiles_.bounds[u]))) continue;
+    for (std::uint64_t first = tiles_.offsets[u]; first < tiles_.offsets[u + 1]; first += kScanBlock) {
+      const std::uint64_t count = std::min(kScanBlock, tiles_.offsets[u + 1] - first);
+      xyz.resize(3 * count);
+      index.resize(count);
+      pos.read_rows(first, count, xyz.data());
+      orig.read_rows(first, count, index.data());
+      for (std::uint64_t r = 0; r < count; ++r) {
+        const Vec3 p(xyz[3 * r], xyz[3 * r + 1], xyz[3 * r + 2]);
+        bool inside = u == t;
+        if (!inside) {
+          inside = true;
+          for (std::size_t c = 0; c < 3 && inside; ++c)
+            inside = p[static_cast<Eigen::Index>(c)] >= grown[c] && p[static_cast<Eigen::Index>(c)] <= grown[c + 3];
+        }
+        if (inside) entries.push_back({index[r], first + r, p});
+      }
+    }
+  }
+  // Local indices ascending with the original index: the tie rule of the canonical order.
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) { return a.original < b.original; });
+  LocalSet s;
+  s.positions.reserve(entries.size());
+  s.rows.reserve(entries.size());
+  s.original.reserve(entries.size());
+  s.queries.assign(tiles_.rows(t), 0);
+  const std::uint64_t begin = tiles_.offsets[t], end = tiles_.offsets[t + 1];
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    s.positions.push_back(entries[i].p);
+    s.rows.push_back(entries[i].row);
+    s.original.push_back(entries[i].original);
+    if (entries[i].row >= begin && entries[i].row < end) s.queries[entries[i].row - begin] = static_cast<Index>(i);
+  }
+  return s;
+}
+
+double Run::resolve_eps_tiled() {
+  NeighborParams np = params_.neighbors;
+  np.validate();
+  if (np.eps > 0.0) return np.eps;
+  if (n_ < 2) return std::numeric_limits<double>::infinity();
+  // The in-core resolve_eps: median distance to the (k+1)-th nearest point (the point itself
+  // included) over the points with original index s * stride.
+  const std::uint64_t stride = std::max<std::uint64_t>(1, n_ / 65536);
+  const std::uint64_t samples = (n_ + stride - 1) / stride;
+  const int want = static_cast<int>(std::min<std::uint64_t>(static_cast<std::uint64_t>(k()) + 1, n_));
+  std::vector<double> kth(samples, 0.0);
+  const h5::Dataset orig = file().dataset(layout::original_index);
+  std::vector<std::uint64_t> index;
+  eps_ = std::numeric_limits<double>::infinity();  // the halo search below is unbounded
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    const std::uint64_t rows = tiles_.rows(t);
+    if (rows == 0) continue;
+    index.resize(rows);
+    orig.read_rows(tiles_.offsets[t], rows, index.data());
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> mine;  // (sample, row in tile)
+    for (std::uint64_t r = 0; r < rows; ++r)
+      if (index[r] % stride == 0) mine.emplace_back(index[r] / stride, r);
+    if (mine.empty()) continue;
+    for (double halo = first_halo(t);; halo *= 2.0) {
+      const LocalSet local = gather_local(t, halo);
+      account(local.bytes() + local.positions.size() * 16);
+      const KdTree tree(local.positions);
+      const bool all = covers_all(t, halo);
+      std::atomic<bool> ok{true};
+      parallel_for(mine.size(), [&](std::size_t b, std::size_t e) {
+        std::vector<Index> idx(static_cast<std::size_t>(want));
+        std::vector<double> d2(static_cast<std::size_t>(want));
+        for (std::size_t i = b; i < e; ++i) {
+          const Vec3& q = local.positions[local.queries[mine[i].second]];
+          const int found = tree.nearest(q, want, std::numeric_limits<double>::infinity(), idx.data(), d2.data());
+          const double d = found > 0 ? std::sqrt(d2[static_cast<std::size_t>(found - 1)]) : 0.0;
+          if (!all && (found < want || !(d < halo * (1.0 - kHaloMargin)))) ok = false;
+          kth[mine[i].first] = d;
+        }
+      }, 256);
+      if (ok) break;
+    }
+    progress("eps", t + 1, tiles_.size());
+  }
+  auto mid = kth.begin() + static_cast<std::ptrdiff_t>(samples / 2);
+  std::nth_element(kth.begin(), mid, kth.end());
+  const double spacing = *mid;
+  if (!(spacing > 0.0)) return std::numeric_limits<double>::infinity();
+  return np.eps_auto_factor * spacing;
+}
+
+void Run::build_neighbors() {
+  eps_ = resolve_eps_tiled();
+  h5::Dataset rows_ds = file().dataset(layout::neighbor_rows);
+  h5::Dataset counts_ds = file().dataset(layout::neighbor_counts);
+  const std::size_t stride = static_cast<std::size_t>(k());
+  std::vector<std::uint32_t> out;
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    const std::uint64_t rows = tiles_.rows(t);
+    if (rows == 0) continue;
+    for (double halo = first_halo(t);; halo *= 2.0) {
+      LocalSet local = gather_local(t, halo);
+      const KdTree tree(local.positions);
+      const Neighborhoods nb = build_neighborhoods(tree, local.queries, k(), eps_);
+      // Exact when the halo holds every point within eps, or, for a larger eps, when every
+      // point's (k+1)-th nearest point lies inside the halo.
+      bool ok = std::isfinite(eps_) || covers_all(t, halo);
+      if (!ok) {
+        ok = true;
+        for (std::size_t r = 0; r < nb.size() && ok; ++r) {
+          if (nb.counts[r] < k()) {
+            ok = false;
+            break;
+          }
+          const Vec3& q = local.positions[local.queries[r]];
+          const Vec3& last = local.positions[nb.indices[r * stride + stride - 1]];
+          ok = (last - q).norm() < halo * (1.0 - kHaloMargin);
+        }
+      }
+      if (!ok) continue;
+      largest_local_ = std::max<std::uint64_t>(largest_local_, local.positions.size());
+      out.resize(rows * stride);
+      for (std::size_t r = 0; r < nb.size(); ++r)
+        for (std::size_t j = 0; j < stride; ++j)
+          out[r * stride + j] = j < nb.counts[r] ? static_cast<std::uint32_t>(local.rows[nb.indices[r * stride + j]]) : 0u;
+      account(local.bytes() + local.positions.size() * 16 + bytes(nb.indices) + bytes(nb.counts) + bytes(out));
+      rows_ds.write_rows(tiles_.offsets[t], rows, out.data());
+      counts_ds.write_rows(tiles_.offsets[t], rows, nb.counts.data());
+      break;
+    }
+    progress("neighbors", t + 1, tiles_.size());
+  }
+  file().dataset(layout::run_eps).write_rows(0, 1, &eps_);
+  state_[kNeighborsDone] = 1;
+  commit_state();
+}
+
+// ---- the lambda sample ------------------------------------------------------------------------
+
+void Run::prepare_lambda_sample() {
+  if (n_ == 0) return;
+  // The in-core auto_lambda: the points with original index s * stride, stride = n / 8192.
+  const std::uint64_t stride = std::max<std::uint64_t>(1, n_ / 8192);
+  const std::uint64_t samples = (n_ + stride - 1) / stride;
+  sample_rows_.assign(samples, 0);
+  const h5::Dataset orig = file().dataset(layout::original_index);
+  std::vector<std::uint64_t> index;
+  for (std::uint64_t first = 0; first < n_; first += kScanBlock) {
+    const std::uint64_t count = std::min(kScanBlock, n_ - first);
+    index.resize(count);
+    orig.read_rows(first, count, index.data());
+    for (std::uint64_t r = 0; r < count; ++r)
+      if (index[r] % stride == 0) sample_rows_[index[r] / stride] = first + r;
+  }
+  std::vector<std::uint64_t> sorted = sample_rows_;
+  std::sort(sorted.begin(), sorted.end());
+  const std::size_t kk = static_cast<std::size_t>(k());
+  std::vector<std::uint32_t> lists(sorted.size() * kk);
+  std::vector<std::uint16_t> counts(sorted.size());
+  file().dataset(layout::neighbor_rows).read_selected(sorted, lists.data());
+  file().dataset(layout::neighbor_counts).read_selected(sorted, counts.data());
+  gather_rows_ = sorted;
+  for (std::size_t i = 0; i < sorted.size(); ++i)
+    for (std::size_t j = 0; j < counts[i]; ++j) gather_rows_.push_back(lists[i * kk + j]);
+  std::sort(gather_rows_.begin(), gather_rows_.end());
+  gather_rows_.erase(std::unique(gather_rows_.begin(), gather_rows_.end()), gather_rows_.end());
+  gather_rows_.shrink_to_fit();
+  auto local_of = [&](std::uint64_t row) {
+    return static_cast<Index>(std::lower_bound(gather_rows_.begin(), gather_rows_.end(), row) - gather_rows_.begin());
+  };
+  sample_local_.resize(samples);
+  sample_counts_.resize(samples);
+  sample_neighbors_.assign(samples * kk, 0);
+  for (std::uint64_t s = 0; s < samples; ++s) {
+    const std::size_t i = static_cast<std::size_t>(std::lower_bound(sorted.begin(), sorted.end(), sample_rows_[s]) - sorted.begin());
+    sample_local_[s] = local_of(sample_rows_[s]);
+    sample_counts_[s] = counts[i];
+    for (std::size_t j = 0; j < counts[i]; ++j) sample_neighbors_[s * kk + j] = local_of(lists[i * kk + j]);
+  }
+}
+
+void Run::load_sample_positions(const h5::Dataset& positions) {
+  gather_positions_.resize(gather_rows_.size());
+  if (!gather_rows_.empty()) positions.read_selected(gather_rows_, gather_positions_.data()->data());
+}
+
+double Run::sample_lambda() const {
+  // Mirrors auto_lambda (euler_step.cpp) on the gathered sample: the same points, frames,
+  // |kappa| medians and median of medians; tests check that both agree to the bit.
+  if (n_ == 0) return 1.0;
+  const std::size_t samples = sample_rows_.size();
+  const std::size_t kk = static_cast<std::size_t>(k());
+  const std::span<const Vec3> points = gather_positions_;
+  std::vector<double> medians(samples, -1.0);
+  parallel_for(samples, [&](std::size_t begin, std::size_t end) {
+    std::vector<double> kappas;
+    for (std::size_t s = begin; s < end; ++s) {
+      const Index i = sample_local_[s];
+      const std::span<const Index> nb(sample_neighbors_.data() + s * kk, sample_counts_[s]);
+      const Frame f = compute_frame(points[i], nb, points);
+      if (!f.valid) continue;
+      kappas.clear();
+      for (const Index j : nb) kappas.push_back(std::abs(directional_curvature(f.normal, points[j] - points[i])));
+      auto mid = kappas.begin() + static_cast<std::ptrdiff_t>(kappas.size() / 2);
+      std::nth_element(kappas.begin(), mid, kappas.end());
+      medians[s] = *mid;
+    }
+  }, 256);
+  std::erase_if(medians, [](double m) { return m < 0.0; });
+  if (medians.empty()) return 1.0;
+  auto mid = medians.begin() + static_cast<std::ptrdiff_t>(medians.size() / 2);
+  std::nth_element(medians.begin(), mid, medians.end());
+  const double m = *mid;
+  return m > 0.0 ? params_.flow.lambda_auto_factor * m : std::numeric_limits<double>::max();
+}
+
+// ---- steps ------------------------------------------------------------------------------------
+
+TileNeighbors Run::tile_neighbors(std::size_t t) const {
+  const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
+  const std::size_t kk = static_cast<std::size_t>(k());
+  std::vector<std::uint32_t> global(rows * kk);
+  TileNeighbors nb;
+  nb.local.stride = k();
+  nb.local.eps = eps_;
+  nb.local.counts.resize(rows);
+  file().dataset(layout::neighbor_rows).read_rows(begin, rows, global.data());
+  file().dataset(layout::neighbor_counts).read_rows(begin, rows, nb.local.counts.data());
+  for (std::size_t r = 0; r < rows; ++r)
+    for (std::size_t j = 0; j < nb.local.counts[r]; ++j) {
+      const std::uint64_t g = global[r * kk + j];
+      if (g < begin || g >= begin + rows) nb.halo_rows.push_back(g);
+    }
+  std::sort(nb.halo_rows.begin(), nb.halo_rows.end());
+  nb.halo_rows.erase(std::unique(nb.halo_rows.begin(), nb.halo_rows.end()), nb.halo_rows.end());
+  nb.halo_rows.shrink_to_fit();
+  nb.local.indices.assign(rows * kk, 0);
+  for (std::size_t r = 0; r < rows; ++r)
+    for (std::size_t j = 0; j < nb.local.counts[r]; ++j) {
+      const std::uint64_t g = global[r * kk + j];
+      nb.local.indices[r * kk + j] =
+          g >= begin && g < begin + rows
+              ? static_cast<Index>(g - begin)
+              : static_cast<Index>(rows + static_cast<std::uint64_t>(std::lower_bound(nb.halo_rows.begin(), nb.halo_rows.end(), g) -
+                                                                     nb.halo_rows.begin()));
+    }
+  return nb;
+}
+
+const TileNeighbors& Run::neighbors_of(std::size_t t, TileNeighbors& scratch) {
+  if (caching_ && cached_[t]) return cache_[t];
+  scratch = tile_neighbors(t);
+  if (caching_) {
+    // Keep the lists while they fit next to everything else, with room for twice the
+    // largest working set seen so far.
+    const std::uint64_t others = persistent_bytes() - cache_bytes_ + 2 * max_working_;
+    if (others + cache_bytes_ + scratch.bytes() <= options_.memory_budget) {
+      cache_bytes_ += scratch.bytes();
+      cache_[t] = std::move(scratch);
+      cached_[t] = 1;
+      return cache_[t];
+    }
+    caching_ = false;
+    cache_.clear();
+    cache_.shrink_to_fit();
+    cached_.clear();
+    cache_bytes_ = 0;
+  }
+  return scratch;
+}
+
+void Run::read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
+                              std::vector<Vec3>& local) const {
+  const std::uint64_t rows = tiles_.rows(t);
+  local.resize(rows + nb.halo_rows.size());
+  source.read_rows(tiles_.offsets[t], rows, local.data()->data());
+  if (!nb.halo_rows.empty()) source.read_selected(nb.halo_rows, local[rows].data());
+}
+
+bool Run::run_steps(OutOfCoreReport& report) {
+  const int start = static_cast<int>(state_[kCompletedSteps]);
+  report.resumed_from = start;
+  const bool every_step = auto_lambda_on() && params_.lambda_every_step;
+  double lambda = params_.flow.lambda;
+  if (auto_lambda_on() && !every_step) {
+    load_sample_positions(file().dataset(layout::positions));
+    lambda = sample_lambda();
+    gather_positions_ = {};
+  }
+  if (every_step) load_sample_positions(file().dataset(source_of_step(start)));
+  cache_.assign(tiles_.size(), {});
+  cached_.assign(tiles_.size(), 0);
+  std::vector<Index> identity(max_tile_rows_);
+  std::iota(identity.begin(), identity.end(), Index{0});
+  std::vector<Vec3> local, next;
+  TileNeighbors scratch;
+  h5::Dataset log = file().dataset(layout::run_step_log);
+  int committed_here = 0;
+  for (int step = start; step < params_.steps; ++step) {
+    const auto t0 = Clock::now();
+    if (every_step) lambda = sample_lambda();
+    const h5::Dataset source = file().dataset(source_of_step(step));
+    h5::Dataset target = file().dataset(positions_buffer((step + 1) % 2));
+    std::size_t degenerate = 0;
+    for (std::size_t t = 0; t < tiles_.size(); ++t) {
+      const std::uint64_t rows = tiles_.rows(t), begin = tiles_.offsets[t];
+      if (rows == 0) continue;
+      const TileNeighbors& nb = neighbors_of(t, scratch);
+      read_tile_positions(t, nb, source, local);
+      next.resize(rows);
+      const StepStats stats =
+          euler_step(local, nb.local, std::span<const Index>(identity.data(), rows), params_.flow, lambda, next);
+      degenerate += stats.degenerate;
+      target.write_rows(begin, rows, next.data()->data());
+      if (every_step) {
+        auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
+        for (; it != gather_rows_.end() && *it < begin + rows; ++it)
+          gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = next[*it - begin];
+      }
+      largest_local_ = std::max<std::uint64_t>(largest_local_, local.size());
+      account(bytes(local) + bytes(next) + (caching_ ? 0 : scratch.bytes()) + bytes(identity));
+    }
+    const double entry[2] = {lambda, static_cast<double>(degenerate)};
+    log.write_rows(static_cast<std::uint64_t>(step), 1, entry);
+    state_[kCompletedSteps] = step + 1;
+    commit_state();
+    report.steps = step + 1;
+    report.lambda = lambda;
+    report.degenerate = degenerate;
+    report.seconds_steps += seconds_since(t0);
+    progress("step", static_cast<std::uint64_t>(step + 1), static_cast<std::uint64_t>(params_.steps));
+    if (options_.stop_after_steps >= 0 && ++committed_here >= options_.stop_after_steps && step + 1 < params_.steps)
+      return false;
+  }
+  return true;
+}
+
+// ---- attributes and the end ---------------------------------------------------------------------
+
+void Run::write_attributes(double lambda) {
+  const std::string source_path = source_of_step(params_.steps);
+  const h5::Dataset source = file().dataset(source_path);
+  // compute_attributes orients normals away from the centre of the bounding box.
+  Eigen::AlignedBox3d box;
+  std::vector<Vec3> block;
+  for (std::uint64_t first = 0; first < n_; first += kScanBlock) {
+    const std::uint64_t count = std::min(kScanBlock, n_ - first);
+    block.resize(count);
+    source.read_rows(first, count, block.data()->data());
+    for (const Vec3& p : block) box.extend(p);
+  }
+  const Vec3 centre = n_ > 0 ? Vec3(box.center()) : Vec3(Vec3::Zero());
+  const std::string a = layout::run_attributes;
+  h5::Dataset normal = file().dataset(a + "/normal"), d1 = file().dataset(a + "/d1"), d2 = file().dataset(a + "/d2");
+  h5::Dataset k1 = file().dataset(a + "/k1"), k2 = file().dataset(a + "/k2");
+  h5::Dataset mean = file().dataset(a + "/mean_curvature"), lap = file().dataset(a + "/laplacian_norm");
+  h5::Dataset feature = file().dataset(a + "/feature_class");
+  std::vector<Vec3> local, vn, vd1, vd2;
+  std::vector<double> vk1, vk2, vmean, vlap;
+  std::vector<std::uint8_t> vfeature;
+  TileNeighbors scratch;
+  std::atomic<std::size_t> degenerate{0};
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    const std::uint64_t rows = tiles_.rows(t), begin = tiles_.offsets[t];
+    if (rows == 0) continue;
+    const TileNeighbors& nb = neighbors_of(t, scratch);
+    read_tile_positions(t, nb, source, local);
+    vn.resize(rows), vd1.resize(rows), vd2.resize(rows);
+    vk1.resize(rows), vk2.resize(rows), vmean.resize(rows), vlap.resize(rows), vfeature.resize(rows);
+    // The per-point body of compute_attributes (smooth.cpp), on the tile's local arrays.
+    parallel_for(rows, [&](std::size_t b, std::size_t e) {
+      std::size_t bad = 0;
+      for (std::size_t i = b; i < e; ++i) {
+        const PointState s = evaluate_point(local[i], nb.local.of(i), local, params_.flow, lambda, true);
+        if (!s.valid) ++bad;
+        const double sign = s.frame.normal.dot(local[i] - centre) < 0.0 ? -1.0 : 1.0;
+        vn[i] = sign * s.frame.normal;
+        vk1[i] = sign > 0 ? s.curvature.k1 : -s.curvature.k2;
+        vk2[i] = sign > 0 ? s.curvature.k2 : -s.curvature.k1;
+        vd1[i] = sign > 0 ? s.curvature.d1 : s.curvature.d2;
+        vd2[i] = sign > 0 ? s.curvature.d2 : s.curvature.d1;
+        vmean[i] = sign * s.curvature.mean;
+        vlap[i] = s.laplacian.norm();
+        vfeature[i] = static_cast<std::uint8_t>(s.feature);
+      }
+      degenerate.fetch_add(bad, std::memory_order_relaxed);
+    }, 1024);
+    normal.write_rows(begin, rows, vn.data()->data());
+    d1.write_rows(begin, rows, vd1.data()->data());
+    d2.write_rows(begin, rows, vd2.data()->data());
+    k1.write_rows(begin, rows, vk1.data());
+    k2.write_rows(begin, rows, vk2.data());
+    mean.write_rows(begin, rows, vmean.data());
+    lap.write_rows(begin, rows, vlap.data());
+    feature.write_rows(begin, rows, vfeature.data());
+    account(bytes(local) + 3 * bytes(vn) + 4 * bytes(vk1) + bytes(vfeature) + (caching_ ? 0 : scratch.bytes()));
+    progress("attributes", t + 1, tiles_.size());
+  }
+  file().set_attribute(layout::run_attributes, "degenerate", static_cast<std::int64_t>(degenerate.load()));
+  file().set_attribute(layout::run_attributes, "lambda", lambda);
+}
+
+void Run::finish() {
+  file().set_attribute(layout::run, "result_positions", source_of_step(params_.steps));
+  file().set_attribute(layout::run, "eps", eps_);
+  state_[kFinished] = 1;
+  commit_state();
+  file_.reset();
+  std::error_code ec;
+  fs::rename(partial_name(output_), output_, ec);
+  if (ec) throw io::IoError(output_.string() + ": cannot rename the finished run into place: " + ec.message());
+}
+
+OutOfCoreReport Run::run() {
+  params_.validate();
+  require(params_.rebuild_interval == 0,
+          "rebuilding neighbourhoods (--rebuild-every) is not supported out of core yet");
+  require(options_.memory_budget > 0, "the memory budget must be positive");
+  io::require_distinct(input_path_, output_);
+  io::require_distinct(input_path_, partial_name(output_));
+  OutOfCoreReport report;
+  open_or_create();
+  report.points = n_;
+  report.tiles = tiles_.size();
+  auto t0 = Clock::now();
+  if (state_[kNeighborsDone] == 0) build_neighbors();
+  else file().dataset(layout::run_eps).read_rows(0, 1, &eps_);
+  report.eps = eps_;
+  if (auto_lambda_on()) prepare_lambda_sample();
+  report.seconds_neighbors = seconds_since(t0);
+  report.steps = static_cast<int>(state_[kCompletedSteps]);
+  if (!run_steps(report)) {
+    report.neighbors_cached = caching_;
+    report.peak_accounted_bytes = peak_;
+    report.largest_tile_with_halo = largest_local_;
+    file_.reset();
+    return report;
+  }
+  // The threshold of the last step (or of the input when there are no steps).
+  double lambda = params_.flow.lambda;
+  if (params_.steps > 0) {
+    double entry[2];
+    file().dataset(layout::run_step_log).read_rows(static_cast<std::uint64_t>(params_.steps - 1), 1, entry);
+    lambda = entry[0];
+    report.degenerate = static_cast<std::size_t>(entry[1]);
+  } else if (auto_lambda_on()) {
+    load_sample_positions(file().dataset(layout::positions));
+    lambda = sample_lambda();
+  }
+  report.lambda = lambda;
+  t0 = Clock::now();
+  if (options_.attributes) write_attributes(lambda);
+  report.seconds_attributes = seconds_since(t0);
+  finish();
+  report.finished = true;
+  report.neighbors_cached = caching_;
+  report.peak_accounted_bytes = peak_;
+  report.largest_tile_with_halo = largest_local_;
+  return report;
+}
+
+}  // namespace
+
+fs::path partial_name(const fs::path& output) {
+  fs::path p = output;
+  p += ".partial";
+  return p;
+}
+
+OutOfCoreReport smooth_out_of_core(const fs::path& input, const fs::path& output, const SmoothParams& params,
+                                   const OutOfCoreOptions& options) {
+  Run run(input, output, params, options);
+  return run.run();
+}
+
+}  // namespace pointfair::tiles

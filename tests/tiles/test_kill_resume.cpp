@@ -1,0 +1,86 @@
+// A run of the command-line tool killed with SIGKILL at several moments and started again
+// with --resume ends bit-identical to an uninterrupted run.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <thread>
+
+#include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/tiled_smooth.hpp"
+#include "tiles_test_util.hpp"
+
+using namespace pointfair;
+using namespace pointfair::tiles;
+
+namespace {
+
+class KillResumeTest : public test::TempDirTest {
+ protected:
+  // Starts `pointfair smooth IN OUT ...`; returns the child's pid.
+  pid_t start(const std::vector<std::string>& args) {
+    const pid_t pid = fork();
+    if (pid == 0) {
+      std::vector<char*> argv;
+      static std::string exe = POINTFAIR_EXE;
+      argv.push_back(exe.data());
+      std::vector<std::string> copy = args;
+      for (auto& a : copy) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      freopen("/dev/null", "w", stdout);
+      freopen("/dev/null", "w", stderr);
+      execv(exe.c_str(), argv.data());
+      _exit(127);
+    }
+    return pid;
+  }
+  // Waits for the child; returns its exit code, or -signal if a signal ended it.
+  static int wait_for(pid_t pid) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+  }
+};
+
+TEST_F(KillResumeTest, SigkillAtSeveralMomentsThenResumeIsBitIdentical) {
+  write_container(path("in.h5"), test::noisy_cube(20000, 21), test::tiled({.max_tile_points = 2500}));
+  const std::vector<std::string> common{"--steps", "12", "--threads", "2", "--quiet"};
+  auto args = [&](const std::string& out, bool resume) {
+    std::vector<std::string> a{"smooth", path("in.h5").string(), path(out).string()};
+    a.insert(a.end(), common.begin(), common.end());
+    if (resume) a.push_back("--resume");
+    return a;
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(wait_for(start(args("ref.h5", false))), 0);
+  const double full = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  // Kill the same run again and again at growing moments (setup, neighbourhoods, steps,
+  // commits, attributes), resuming each time; then let it finish.
+  int kills = 0;
+  for (const double fraction : {0.03, 0.1, 0.2, 0.35, 0.5, 0.7, 0.9}) {
+    const pid_t pid = start(args("out.h5", true));
+    std::this_thread::sleep_for(std::chrono::duration<double>(fraction * full));
+    kill(pid, SIGKILL);
+    kills += wait_for(pid) == -SIGKILL;
+    if (std::filesystem::exists(path("out.h5"))) break;  // it finished before the kill
+    // Whatever is on disk now never looks like a finished run.
+    EXPECT_FALSE(std::filesystem::exists(path("out.h5")));
+  }
+  EXPECT_GT(kills, 0);
+  if (!std::filesystem::exists(path("out.h5"))) {
+    ASSERT_EQ(wait_for(start(args("out.h5", true))), 0);
+  }
+  ASSERT_TRUE(std::filesystem::exists(path("out.h5")));
+  EXPECT_FALSE(std::filesystem::exists(partial_name(path("out.h5"))));
+
+  const io::PointTable ref = read_container(path("ref.h5")), out = read_container(path("out.h5"));
+  EXPECT_EQ(ref.positions, out.positions);
+  const PointAttributes ra = read_run_attributes(path("ref.h5")), oa = read_run_attributes(path("out.h5"));
+  EXPECT_EQ(ra.k1, oa.k1);
+  EXPECT_EQ(ra.laplacian_norm, oa.laplacian_norm);
+  EXPECT_EQ(ra.normal, oa.normal);
+}
+
+}  // namespace

@@ -1,0 +1,217 @@
+// Out-of-core runs are bit-identical to smooth() + compute_attributes(), for any tiling,
+// eps and lambda policy and thread count; they resume to the same bits; they account memory.
+#include "pointfair/tiles/tiled_smooth.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
+#include "pointfair/tiles/container.hpp"
+#include "tiles_test_util.hpp"
+
+using namespace pointfair;
+using namespace pointfair::tiles;
+
+namespace {
+
+struct InCore {
+  std::vector<Vec3> positions;
+  PointAttributes attributes;
+  SmoothReport report;
+};
+
+InCore run_in_core(const io::PointTable& table, const SmoothParams& params) {
+  InCore r;
+  r.positions = table.positions;
+  r.report = smooth(r.positions, params);
+  r.attributes = compute_attributes(r.positions, r.report.neighborhoods, params.flow, r.report.lambda);
+  return r;
+}
+
+void expect_identical(const std::filesystem::path& run, const InCore& ref) {
+  const io::PointTable out = read_container(run);
+  ASSERT_EQ(out.size(), ref.positions.size());
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < out.size(); ++i) differ += out.positions[i] != ref.positions[i];
+  EXPECT_EQ(differ, 0u) << "positions differ from the in-core run";
+  const PointAttributes a = read_run_attributes(run);
+  std::size_t bad = 0;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    bad += a.normal[i] != ref.attributes.normal[i] || a.d1[i] != ref.attributes.d1[i] ||
+           a.d2[i] != ref.attributes.d2[i] || a.k1[i] != ref.attributes.k1[i] || a.k2[i] != ref.attributes.k2[i] ||
+           a.mean_curvature[i] != ref.attributes.mean_curvature[i] ||
+           a.laplacian_norm[i] != ref.attributes.laplacian_norm[i] || a.feature[i] != ref.attributes.feature[i];
+  }
+  EXPECT_EQ(bad, 0u) << "attributes differ from the in-core run";
+  EXPECT_EQ(a.degenerate, ref.attributes.degenerate);
+}
+
+SmoothParams few_steps(int steps = 3) {
+  SmoothParams p;
+  p.steps = steps;
+  return p;
+}
+
+class TiledSmoothTest : public test::TempDirTest {
+ protected:
+  void TearDown() override {
+    set_thread_count(0);
+    TempDirTest::TearDown();
+  }
+};
+
+struct Case {
+  const char* name;
+  TilingParams tiling;
+  double eps;  // 0 auto
+  double lambda;
+  bool every_step;
+};
+
+TEST_F(TiledSmoothTest, BitIdenticalToInCoreForAnyTiling) {
+  const io::PointTable cloud = test::noisy_cube(6000, 11);
+  const double inf = std::numeric_limits<double>::infinity();
+  const Case cases[] = {
+      {"one tile", {.max_tile_points = 1u << 20}, 0.0, 0.0, true},
+      {"kd 400", {.max_tile_points = 400}, 0.0, 0.0, true},
+      {"kd 7 (a handful of points a tile)", {.max_tile_points = 7}, 0.0, 0.0, true},
+      {"grid with empty tiles", {.cell_size = 0.3}, 0.0, 0.0, true},
+      {"kd 300, eps inf", {.max_tile_points = 300}, inf, 0.0, true},
+      {"grid, eps inf", {.cell_size = 0.5}, inf, 0.0, false},
+      {"kd 500, fixed eps and lambda", {.max_tile_points = 500}, 0.08, 12.0, true},
+      {"kd 250, lambda once", {.max_tile_points = 250}, 0.0, 0.0, false},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    SmoothParams params = few_steps();
+    params.neighbors.eps = c.eps;
+    params.flow.lambda = c.lambda;
+    params.lambda_every_step = c.every_step;
+    const InCore ref = run_in_core(cloud, params);
+    const auto container = path("in.h5"), run = path("run.h5");
+    write_container(container, cloud, test::tiled(c.tiling, 512));
+    const OutOfCoreReport r = smooth_out_of_core(container, run, params);
+    EXPECT_TRUE(r.finished);
+    EXPECT_EQ(r.steps, 3);
+    EXPECT_EQ(r.eps, ref.report.eps);
+    EXPECT_EQ(r.lambda, ref.report.lambda);
+    expect_identical(run, ref);
+    std::filesystem::remove(run);
+  }
+}
+
+TEST_F(TiledSmoothTest, IsotropicConstrainedAndGatedFlowsToo) {
+  const io::PointTable cloud = test::noisy_cube(4000, 12);
+  for (int variant = 0; variant < 3; ++variant) {
+    SmoothParams params = few_steps(2);
+    if (variant == 0) params.flow.flow = Flow::Isotropic;
+    if (variant == 1) params.flow.constrain_normal = true, params.flow.cutoff = Cutoff::Continuous;
+    if (variant == 2) params.flow.feature_gated = true, params.flow.features.mode = FeatureMode::MaxCurvature;
+    const InCore ref = run_in_core(cloud, params);
+    write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 333}));
+    smooth_out_of_core(path("in.h5"), path("run.h5"), params);
+    expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+  }
+}
+
+TEST_F(TiledSmoothTest, OneAndTwoThreadsGiveTheSameBits) {
+  const io::PointTable cloud = test::noisy_cube(5000, 13);
+  const SmoothParams params = few_steps();
+  set_thread_count(2);
+  const InCore ref = run_in_core(cloud, params);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 600}));
+  for (const int threads : {1, 2}) {
+    set_thread_count(threads);
+    smooth_out_of_core(path("in.h5"), path("run.h5"), params);
+    expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+  }
+}
+
+TEST_F(TiledSmoothTest, ZeroStepsAndTinyClouds) {
+  for (const std::size_t n : {0u, 1u, 2u, 5u, 40u}) {
+    SCOPED_TRACE(n);
+    const io::PointTable cloud = test::noisy_cube(n, 14);
+    for (const int steps : {0, 2}) {
+      const SmoothParams params = few_steps(steps);
+      const InCore ref = run_in_core(cloud, params);
+      write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 3}));
+      const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params);
+      EXPECT_EQ(r.lambda, ref.report.lambda);
+      expect_identical(path("run.h5"), ref);
+      std::filesystem::remove(path("run.h5"));
+    }
+  }
+}
+
+TEST_F(TiledSmoothTest, ResumesToTheSameBits) {
+  const io::PointTable cloud = test::noisy_cube(4000, 15);
+  const SmoothParams params = few_steps(5);
+  const InCore ref = run_in_core(cloud, params);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 500}));
+  const auto run = path("run.h5");
+  OutOfCoreOptions stop;
+  stop.stop_after_steps = 2;
+  const OutOfCoreReport first = smooth_out_of_core(path("in.h5"), run, params, stop);
+  EXPECT_FALSE(first.finished);
+  EXPECT_EQ(first.steps, 2);
+  // An interrupted run never looks finished: no output, and the partial file says so.
+  EXPECT_FALSE(std::filesystem::exists(run));
+  ASSERT_TRUE(std::filesystem::exists(partial_name(run)));
+  EXPECT_FALSE(has_finished_run(h5::File::open(partial_name(run), false)));
+  // Without --resume the partial run is not thrown away silently.
+  EXPECT_THROW(smooth_out_of_core(path("in.h5"), run, params), io::IoError);
+  // Other parameters cannot continue it.
+  OutOfCoreOptions resume;
+  resume.resume = true;
+  SmoothParams other = params;
+  other.flow.tau = 0.25;
+  EXPECT_THROW(smooth_out_of_core(path("in.h5"), run, other, resume), ParamError);
+  resume.stop_after_steps = 1;
+  const OutOfCoreReport second = smooth_out_of_core(path("in.h5"), run, params, resume);
+  EXPECT_EQ(second.resumed_from, 2);
+  EXPECT_EQ(second.steps, 3);
+  resume.stop_after_steps = -1;
+  const OutOfCoreReport third = smooth_out_of_core(path("in.h5"), run, params, resume);
+  EXPECT_EQ(third.resumed_from, 3);
+  EXPECT_TRUE(third.finished);
+  EXPECT_FALSE(std::filesystem::exists(partial_name(run)));
+  expect_identical(run, ref);
+  EXPECT_EQ(third.lambda, ref.report.lambda);
+}
+
+TEST_F(TiledSmoothTest, MemoryAccountingStaysInTheBudget) {
+  const io::PointTable cloud = test::noisy_cube(20000, 16);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 2000}));
+  OutOfCoreOptions options;
+  options.memory_budget = 8u << 20;  // the neighbour lists (1.3 MiB) fit: they are cached
+  const OutOfCoreReport cached = smooth_out_of_core(path("in.h5"), path("a.h5"), few_steps(1), options);
+  EXPECT_TRUE(cached.neighbors_cached);
+  EXPECT_LE(cached.peak_accounted_bytes, options.memory_budget);
+  options.memory_budget = 2u << 20;  // too small to cache them: lists are re-read every step
+  const OutOfCoreReport streamed = smooth_out_of_core(path("in.h5"), path("b.h5"), few_steps(1), options);
+  EXPECT_FALSE(streamed.neighbors_cached);
+  EXPECT_LE(streamed.peak_accounted_bytes, options.memory_budget);
+  EXPECT_GT(streamed.peak_accounted_bytes, 0u);
+  const io::PointTable a = read_container(path("a.h5")), b = read_container(path("b.h5"));
+  EXPECT_EQ(a.positions, b.positions);
+  options.memory_budget = 64u << 10;  // smaller than one tile
+  EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("c.h5"), few_steps(1), options), ParamError);
+}
+
+TEST_F(TiledSmoothTest, RefusesWhatItCannotDoExactly) {
+  const io::PointTable cloud = test::noisy_cube(100, 17);
+  write_container(path("in.h5"), cloud);
+  SmoothParams params = few_steps();
+  params.rebuild_interval = 2;
+  EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), params), ParamError);
+  EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("in.h5"), few_steps()), io::IoError);
+  // The input is never modified.
+  const auto before = std::filesystem::last_write_time(path("in.h5"));
+  smooth_out_of_core(path("in.h5"), path("run.h5"), few_steps(1));
+  EXPECT_EQ(std::filesystem::last_write_time(path("in.h5")), before);
+}
+
+}  // namespace

@@ -1,0 +1,155 @@
+// pointfair smooth on HDF5 containers, or with --memory-budget: the out-of-core run.
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "commands.hpp"
+#include "out_of_core.hpp"
+#include "progress.hpp"
+#include "run_support.hpp"
+#include "pointfair/io/atomic_file.hpp"
+#include "pointfair/io/point_file.hpp"
+#include "pointfair/parallel.hpp"
+#include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/tiled_smooth.hpp"
+#include "pointfair/version.hpp"
+
+namespace pointfair::cli {
+
+namespace fs = std::filesystem;
+
+bool wants_out_of_core(const Args& args) {
+  for (const std::string& a : args) {
+    if (a == "--help" || a == "-h") return false;
+    if (a == "--memory-budget" || a.starts_with("--memory-budget=") || a == "--resume") return true;
+    if (!a.starts_with("--") && is_container_path(a)) return true;
+  }
+  return false;
+}
+
+namespace {
+
+Args without_budget(const Args& args) {
+  Args out;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if (args[i] == "--memory-budget") {
+      ++i;
+      continue;
+    }
+    if (args[i].starts_with("--memory-budget=")) continue;
+    out.push_back(args[i]);
+  }
+  return out;
+}
+
+void remove_quietly(const fs::path& p) {
+  std::error_code ec;
+  fs::remove(p, ec);
+}
+
+}  // namespace
+
+int run_smooth_out_of_core(const Args& args) {
+  std::string input, output_path;
+  SmoothParams params;
+  OutputOptions output;
+  tiles::OutOfCoreOptions ooc;
+  bool budget_given = false;
+  ArgumentParser parser("pointfair smooth",
+                        "Denoises a point cloud with the anisotropic mean curvature flow of Lange & "
+                        "Polthier (2005), out of core: tiles of an HDF5 container stream through a "
+                        "bounded memory budget, every step is committed to the output file, and the "
+                        "result is bit-identical to the in-core run.");
+  parser.positional("IN", "Input container (.h5) or point file (.ply, .xyz, ...).", &input);
+  parser.positional("OUT", "Output container (.h5) or point file.", &output_path);
+  add_method_options(parser, params);
+  parser.value("memory-budget", "SIZE",
+               "Working memory of the run (e.g. 256M, 2G). A point-file input that fits runs in "
+               "core. Default 256M.",
+               [&](std::string_view v) {
+                 ooc.memory_budget = parse_size(v, "--memory-budget");
+                 budget_given = true;
+               });
+  parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters).",
+              [&] { ooc.resume = true; });
+  add_output_options(parser, output, true);
+  if (!parser.parse(args)) return 0;
+  params.validate();
+  set_thread_count(output.threads);
+  const auto t_start = std::chrono::steady_clock::now();
+
+  const bool container_in = is_container_path(input), container_out = is_container_path(output_path);
+  fs::path run_input = input;
+  fs::path imported;
+  if (!container_in) {
+    io::PointTable table = read_input(input, output.quiet);
+    if (!container_out && in_core_bytes(table.size(), params.neighbors.k) <= ooc.memory_budget && !ooc.resume) {
+      table = io::PointTable{};
+      return run_smooth(without_budget(args));
+    }
+    io::require_distinct(input, output_path);
+    imported = fs::path(output_path).string() + ".input.h5";
+    tiles::ImportOptions import;
+    import.tiling.max_tile_points = tile_points_for_budget(ooc.memory_budget, params.neighbors.k);
+    import.source_name = fs::path(input).filename().string();
+    import.source_size = fs::file_size(input);
+    if (!(ooc.resume && fs::exists(imported))) tiles::write_container(imported, table, import);
+    run_input = imported;
+  }
+  (void)budget_given;
+  const fs::path run_output = container_out ? fs::path(output_path) : fs::path(output_path + ".run.h5");
+
+  Progress progress("smooth (out of core):", !output.quiet);
+  ooc.attributes = true;
+  ooc.progress = [&](const std::string& phase, std::uint64_t done, std::uint64_t total) {
+    if (phase == "step") progress.update(static_cast<long long>(done), static_cast<long long>(total));
+  };
+  const tiles::OutOfCoreReport report = tiles::smooth_out_of_core(run_input, run_output, params, ooc);
+  progress.finish();
+
+  double seconds_write = 0.0;
+  if (!container_out) {
+    const auto t0 = std::chrono::steady_clock::now();
+    io::PointTable table = tiles::read_container(run_output);
+    if (output.attributes || output.colour_by != ColourBy::None)
+      add_result_columns(table, tiles::read_run_attributes(run_output), output, output.attributes);
+    write_output(output_path, table, output, input);
+    remove_quietly(run_output);
+    if (!imported.empty()) remove_quietly(imported);
+    seconds_write = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  }
+  const double seconds_total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+  const int steps_here = report.steps - report.resumed_from;
+  const double rate = report.seconds_steps > 0
+                          ? static_cast<double>(report.points) * steps_here / report.seconds_steps
+                          : 0.0;
+  if (!output.quiet)
+    std::fprintf(stderr,
+                 "smooth: %llu points in %zu tiles, %d steps (%d resumed) out of core (lambda %.4g, eps %.4g) "
+                 "in %.2f s (%.3g point-steps/s); working memory %.1f MiB of %.1f MiB; %zu degenerate "
+                 "points -> %s\n",
+                 static_cast<unsigned long long>(report.points), report.tiles, report.steps,
+                 report.resumed_from, report.lambda, report.eps, seconds_total, rate,
+                 static_cast<double>(report.peak_accounted_bytes) / (1 << 20),
+                 static_cast<double>(ooc.memory_budget) / (1 << 20), report.degenerate, output_path.c_str());
+  if (output.json) {
+    JsonObject seconds;
+    seconds.add("neighbors", report.seconds_neighbors).add("steps", report.seconds_steps)
+        .add("attributes", report.seconds_attributes).add("write", seconds_write).add("total", seconds_total);
+    JsonObject j;
+    j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
+    j.add("out_of_core", true).add("points", static_cast<std::size_t>(report.points)).add("tiles", report.tiles);
+    j.add("steps", report.steps).add("resumed_from", report.resumed_from).add("threads", thread_count());
+    j.add("parameters", parameters_json(params, report.eps, report.lambda));
+    j.add("memory_budget_bytes", static_cast<std::size_t>(ooc.memory_budget));
+    j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
+    j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));
+    j.add("neighbors_cached", report.neighbors_cached);
+    j.add("seconds", seconds).add("point_steps_per_second", rate).add("degenerate_points", report.degenerate);
+    std::cout << j.str() << std::endl;
+  }
+  return 0;
+}
+
+}  // namespace pointfair::cli

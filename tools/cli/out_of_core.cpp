@@ -1,0 +1,55 @@
+#include "out_of_core.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <string>
+
+#include "arguments.hpp"
+
+namespace pointfair::cli {
+
+bool is_container_path(const std::filesystem::path& path) {
+  std::string e = path.extension().string();
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e == ".h5" || e == ".hdf5";
+}
+
+std::uint64_t parse_size(std::string_view text, std::string_view what) {
+  std::uint64_t value = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  std::string unit(ptr, end);
+  for (char& c : unit) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  if (unit.ends_with("IB")) unit.resize(unit.size() - 2);
+  else if (unit.size() == 2 && unit.back() == 'B') unit.resize(1);
+  int shift = -1;
+  if (unit.empty() || unit == "B") shift = 0;
+  else if (unit == "K") shift = 10;
+  else if (unit == "M") shift = 20;
+  else if (unit == "G") shift = 30;
+  else if (unit == "T") shift = 40;
+  if (text.empty() || ec != std::errc() || ptr == text.data() || shift < 0 || value == 0 ||
+      value > (std::uint64_t{1} << (63 - shift)))
+    throw UsageError(std::string(what) + " expects a positive size such as 256M or 2G, got '" +
+                     std::string(text) + "'");
+  return value << shift;
+}
+
+// Bytes per tile point in the largest working set of a run (neighbour building: the tile
+// and a halo about as large, their tree and lists), doubled for the halo.
+static std::uint64_t bytes_per_tile_point(int k) { return 2 * (200 + 8 * static_cast<std::uint64_t>(k)); }
+
+std::uint64_t tile_points_for_budget(std::uint64_t budget, int k) {
+  const std::uint64_t reserve = std::uint64_t{16} << 20;  // the lambda sample and tables
+  const std::uint64_t usable = budget > 2 * reserve ? budget - reserve : budget / 2;
+  return std::max<std::uint64_t>(64, usable / bytes_per_tile_point(k));
+}
+
+std::uint64_t in_core_bytes(std::uint64_t points, int k) {
+  // Positions (input, current, next, before), neighbour lists twice while reordering, the
+  // table's attribute columns.
+  return points * (4 * 24 + 8 * static_cast<std::uint64_t>(k) + 64);
+}
+
+}  // namespace pointfair::cli

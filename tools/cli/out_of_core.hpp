@@ -1,0 +1,21 @@
+#pragma once
+// Shared pieces of the out-of-core commands (import, export, smooth on containers).
+#include <cstdint>
+#include <filesystem>
+#include <string_view>
+
+namespace pointfair::cli {
+
+/// True for .h5 / .hdf5 (case-insensitive).
+bool is_container_path(const std::filesystem::path& path);
+
+/// Parses a size in bytes: "1048576", "512K", "256M", "256MiB", "2G", "2GiB" (binary units).
+std::uint64_t parse_size(std::string_view text, std::string_view what);
+
+/// Most points per tile so that a run with k neighbours stays within `budget` bytes.
+std::uint64_t tile_points_for_budget(std::uint64_t budget, int k);
+
+/// Bytes an in-core smooth of `points` points with k neighbours needs, roughly.
+std::uint64_t in_core_bytes(std::uint64_t points, int k);
+
+}  // namespace pointfair::cli
