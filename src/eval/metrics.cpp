@@ -91,6 +91,7 @@ EvalReport evaluate(const GroundTruth& truth, const EvalInput& input, const Eval
     attributes = compute_attributes(cloud, nb, params.method.flow, lambda);
   }
 
+  const bool by_reference = input.reference_in_order && input.reference.size() == n && truth.has_creases();
   double sum2 = 0, edge2 = 0, else2 = 0, signed_sum = 0;
   std::size_t n_edge = 0, n_else = 0;
   double a_sum[3] = {0, 0, 0}, a_sum2[3] = {0, 0, 0};
@@ -104,7 +105,7 @@ EvalReport evaluate(const GroundTruth& truth, const EvalInput& input, const Eval
     r.max_distance = std::max(r.max_distance, d);
     signed_sum += s.signed_distance;
     cloud_box.extend(cloud[i]);
-    const bool near_edge = s.crease_distance < band;
+    const bool near_edge = (by_reference ? truth.closest(input.reference[i]).crease_distance : s.crease_distance) < band;
     const double angle = line_angle_degrees(normals[i], s.normal);
     accumulate(r.normal_all, angle, a_sum[0], a_sum2[0]);
     if (near_edge) {

@@ -12,7 +12,8 @@
 //              one-directional (points to surface; no face-to-point term);
 //   normals    angle between the PCA normal of the cloud (k nearest, default 16, unsigned) and
 //              the true normal at the closest true point: overall, near sharp creases (closest
-//              true point within `edge_band` x diagonal of a crease) and elsewhere;
+//              true point within `edge_band` x diagonal of a crease, or that of the clean
+//              sample when the reference is the clean cloud in order) and elsewhere;
 //   curvature  RMS over points of the error of (k1, k2) from the method's Weingarten map,
 //              where the truth knows its curvature (analytic surfaces and polytope faces
 //              outside the edge band);
@@ -79,6 +80,10 @@ struct EvalInput {
   std::span<const Vec3> reference;
   /// The cloud before processing, same order, for displacements; may be empty.
   std::span<const Vec3> input;
+  /// When the reference has as many points as the cloud and this is set, it is the clean
+  /// cloud in the same order, and a point is "near a crease" when its clean sample is (as
+  /// in MATH.md), so that points a flow pulled away from an edge still count there.
+  bool reference_in_order = true;
 };
 
 /// Scores `input.cloud` against `truth`. Throws ParamError for bad parameters, an empty cloud
