@@ -111,12 +111,15 @@ PointAttributes compute_attributes(std::span<const Vec3> positions,
       if (!s.valid) ++bad;
       const double sign = s.frame.normal.dot(positions[i] - centre) < 0.0 ? -1.0 : 1.0;
       a.normal[i] = sign * s.frame.normal;
-      // Flipping the normal negates the curvatures and swaps their order.
-      a.k1[i] = sign > 0 ? s.curvature.k1 : -s.curvature.k2;
-      a.k2[i] = sign > 0 ? s.curvature.k2 : -s.curvature.k1;
-      a.d1[i] = sign > 0 ? s.curvature.d1 : s.curvature.d2;
-      a.d2[i] = sign > 0 ? s.curvature.d2 : s.curvature.d1;
-      a.mean_curvature[i] = sign * s.curvature.mean;
+      // The estimator's curvatures are positive where the surface bends toward its normal
+      // (eq. 2); reported ones are positive where it bends away from the written normal, so
+      // that a sphere with outward normals has k1 = k2 = +1/R. Negating a curvature pair
+      // swaps the order of k1 >= k2 and of their directions.
+      a.k1[i] = sign > 0 ? -s.curvature.k2 : s.curvature.k1;
+      a.k2[i] = sign > 0 ? -s.curvature.k1 : s.curvature.k2;
+      a.d1[i] = sign > 0 ? s.curvature.d2 : s.curvature.d1;
+      a.d2[i] = sign > 0 ? s.curvature.d1 : s.curvature.d2;
+      a.mean_curvature[i] = -sign * s.curvature.mean;
       a.laplacian_norm[i] = s.laplacian.norm();
       a.feature[i] = s.feature;
     }

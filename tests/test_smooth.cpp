@@ -334,9 +334,9 @@ TEST(Smooth, AttributesOnSphereAreOrientedOutward) {
     mean_k += a.mean_curvature[i];
   }
   mean_k /= static_cast<double>(s.points.size());
-  // kappa = 2 <n, p_j - p_i> / |e|^2 is negative on a sphere for the outward normal, so the
-  // mean curvature is about -1/R = -0.5 (the estimator's own error is ~0.1 on such samples).
-  EXPECT_NEAR(mean_k, -0.5, 0.05);
+  // Reported curvatures are positive where the surface is convex (outward normals), so the
+  // mean curvature is about +1/R = 0.5 (the estimator's own error is ~0.1 on such samples).
+  EXPECT_NEAR(mean_k, 0.5, 0.05);
   const Neighborhoods wrong = build_neighborhoods(std::vector<Vec3>(s.points.begin(), s.points.end() - 1), NeighborParams{});
   EXPECT_THROW(compute_attributes(s.points, wrong, params, lambda), ParamError);
 }

@@ -70,7 +70,8 @@ struct PointAttributes {
 
 /// Frames, curvatures, Laplacians and feature classes of every point. Normals are oriented
 /// away from the centre of the bounding box (a convention for output only; the method itself
-/// never depends on the normal's sign), and k1, k2, H are signed with respect to them.
+/// never depends on the normal's sign). k1 >= k2 and H are signed so that the surface is
+/// convex where they are positive: a sphere of radius R with outward normals has +1/R.
 PointAttributes compute_attributes(std::span<const Vec3> positions,
                                    const Neighborhoods& neighborhoods, const FlowParams& params,
                                    double lambda);

@@ -127,11 +127,10 @@ TEST_F(CliTest, CurvatureWritesEveryAttribute) {
   for (const char* name : {"nx", "ny", "nz", "k1", "k2", "d1x", "d2z", "mean_curvature",
                            "laplacian_norm", "feature_class", "red"})
     EXPECT_NE(t.find(name), nullptr) << name;
-  // A noisy unit sphere: the median mean curvature is near 1 (normals point outward, so H < 0
-  // with the convention kappa = 2 <n, e> / |e|^2).
+  // A noisy unit sphere: the median mean curvature is near +1 (convex with outward normals).
   std::vector<double> h = t.find("mean_curvature")->values;
   std::nth_element(h.begin(), h.begin() + static_cast<long>(h.size() / 2), h.end());
-  EXPECT_NEAR(std::abs(h[h.size() / 2]), 1.0, 0.35);
+  EXPECT_NEAR(h[h.size() / 2], 1.0, 0.35);
 }
 
 TEST_F(CliTest, HelpListsUnitsAndDefaults) {

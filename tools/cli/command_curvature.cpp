@@ -19,7 +19,7 @@ int run_curvature(const Args& args) {
                         "directions d1, d2, mean curvature H, the length of the (anisotropic) mean "
                         "curvature vector |A| and the feature class (0 smooth, 1 edge, 2 corner), "
                         "without moving any point. Normals point away from the bounding-box "
-                        "centre; curvatures are signed with respect to them.");
+                        "centre; curvatures are positive where the surface is convex (a sphere: +1/R).");
   parser.positional("IN", "Input point file (.ply, .xyz, .txt, .pts, .csv).", &input);
   parser.positional("OUT", "Output point file with the attributes as named properties/columns.",
                     &output_path);
