@@ -99,17 +99,22 @@ Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
       xy / count, yy / count, yz / count,            //
       xz / count, yz / count, zz / count;
   covariance -= mean * mean.transpose();
-  const Frame frame = frame_from_covariance(covariance, p + mean);
-  if (!frame.valid || m < 2) return out;
-  const Vec3& n = frame.normal;
+  const NormalEstimate estimate = normal_from_covariance(covariance);
+  if (!estimate.valid || m < 2) return out;
+  const Vec3& n = estimate.normal;
   Vec3 a = Vec3::Zero();
   if (params.flow == Flow::Isotropic) {
     a = sum;
   } else {
     for (std::size_t j = 0; j < m; ++j) {
+      // |kappa| < lambda  <=>  2 |<n, d>| < lambda |d|^2: the kept neighbours need no division.
       const double len2 = d[j].squaredNorm();
-      const double kappa = len2 > 0.0 ? 2.0 * n.dot(d[j]) / len2 : 0.0;
-      a += cutoff_weight(std::abs(kappa), lambda, params.cutoff) * d[j];
+      const double twice_nd = 2.0 * std::abs(n.dot(d[j]));
+      if (twice_nd < lambda * len2 || len2 == 0.0) {
+        a += d[j];
+      } else if (params.cutoff == Cutoff::Continuous) {
+        a += cutoff_weight(twice_nd / len2, lambda, Cutoff::Continuous) * d[j];
+      }
     }
   }
   a *= inv_m;

@@ -1,6 +1,8 @@
 #include "pointfair/frame.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include <Eigen/Eigenvalues>
 
@@ -62,6 +64,43 @@ Frame frame_from_covariance(const Eigen::Matrix3d& covariance, const Vec3& centr
   // A plane needs two tangential directions with spread.
   f.valid = f.c2 > 1e-12 * f.c1;
   return f;
+}
+
+NormalEstimate normal_from_covariance(const Eigen::Matrix3d& covariance) {
+  const auto fallback = [&covariance] {
+    const Frame f = frame_from_covariance(covariance, Vec3::Zero());
+    return NormalEstimate{f.normal, f.valid};
+  };
+  const double scale = covariance.cwiseAbs().maxCoeff();
+  if (!(scale > 0.0) || !std::isfinite(scale)) return NormalEstimate{};
+  const Eigen::Matrix3d a = covariance / scale;
+  // Eigenvalues of a symmetric 3x3 matrix: with q = tr/3 and B = (a - qI) / p, they are
+  // q + 2p cos(phi + 2 pi j / 3), phi = acos(det(B) / 2) / 3.
+  const double q = a.trace() / 3.0;
+  const double b00 = a(0, 0) - q, b11 = a(1, 1) - q, b22 = a(2, 2) - q;
+  const double p2 = (b00 * b00 + b11 * b11 + b22 * b22 +
+                     2.0 * (a(0, 1) * a(0, 1) + a(0, 2) * a(0, 2) + a(1, 2) * a(1, 2))) / 6.0;
+  if (!(p2 > 1e-16)) return fallback();  // (nearly) isotropic: no direction stands out
+  const double p = std::sqrt(p2);
+  const double det = b00 * (b11 * b22 - a(1, 2) * a(1, 2)) - a(0, 1) * (a(0, 1) * b22 - a(1, 2) * a(0, 2)) +
+                     a(0, 2) * (a(0, 1) * a(1, 2) - b11 * a(0, 2));
+  const double r = std::clamp(det / (2.0 * p2 * p), -1.0, 1.0);
+  const double phi = std::acos(r) / 3.0;
+  const double c1 = q + 2.0 * p * std::cos(phi);
+  const double c0 = q + 2.0 * p * std::cos(phi + 2.0 * std::numbers::pi / 3.0);
+  const double c2 = 3.0 * q - c1 - c0;
+  if (!(c2 - c0 > 1e-4 * c1) || !(c2 > 1e-6 * c1)) return fallback();
+  // The rows of a - c0 I span the plane orthogonal to the normal: the largest cross product of
+  // two of them is the most accurate normal direction.
+  const Vec3 r0(a(0, 0) - c0, a(0, 1), a(0, 2));
+  const Vec3 r1(a(0, 1), a(1, 1) - c0, a(1, 2));
+  const Vec3 r2(a(0, 2), a(1, 2), a(2, 2) - c0);
+  const Vec3 x01 = r0.cross(r1), x02 = r0.cross(r2), x12 = r1.cross(r2);
+  const double n01 = x01.squaredNorm(), n02 = x02.squaredNorm(), n12 = x12.squaredNorm();
+  const Vec3& best = n01 >= n02 ? (n01 >= n12 ? x01 : x12) : (n02 >= n12 ? x02 : x12);
+  const double best_norm2 = std::max(n01, std::max(n02, n12));
+  if (!(best_norm2 > 0.0)) return fallback();
+  return NormalEstimate{best / std::sqrt(best_norm2), true};
 }
 
 Frame compute_frame(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points) {

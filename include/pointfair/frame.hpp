@@ -28,6 +28,17 @@ struct Frame {
 /// Frame of point `p` with its neighbours `neighbors` (indices into `points`).
 Frame compute_frame(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points);
 
+/// The normal alone, for the Euler step's hot path: the unit eigenvector of the smallest
+/// eigenvalue of `covariance` from the closed-form (trigonometric) eigenvalues and a cross
+/// product of two rows of (covariance - c0 I). Where the eigenvalues are too close for that to
+/// be accurate (relative gap below 1e-4, or c2 below 1e-6 c1) it falls back to
+/// frame_from_covariance, so `valid` always agrees with it.
+struct NormalEstimate {
+  Vec3 normal = Vec3::UnitZ();
+  bool valid = false;
+};
+NormalEstimate normal_from_covariance(const Eigen::Matrix3d& covariance);
+
 /// Frame from a covariance about the barycentre (already divided by the point count) and the
 /// barycentre. Exposed for tests and for callers that accumulate the covariance themselves.
 Frame frame_from_covariance(const Eigen::Matrix3d& covariance, const Vec3& centroid);
