@@ -39,32 +39,43 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
   auto t0 = std::chrono::steady_clock::now();
   const std::span<const Vec3> first_source =
       options.neighbor_reference.empty() ? std::span<const Vec3>(positions) : options.neighbor_reference;
-  // Neighbourhoods are always built in the caller's order, so that their canonical tie rule
-  // (ties by the smaller index) refers to the caller's indices.
-  Neighborhoods original_order = build_neighborhoods(first_source, params.neighbors);
-  report.eps = original_order.eps;
-
-  // The steps run on a copy stored in Morton order (neighbours near in memory); relabelling
-  // changes no bit of the result (see spatial_order.hpp).
+  // The steps run on the cloud stored in Morton order (neighbours near in memory). The
+  // neighbourhoods are still built in the caller's order, so that their canonical tie rule
+  // (ties by the smaller index) refers to the caller's indices; relabelling changes no bit of
+  // the result (see spatial_order.hpp).
   const std::vector<Index> order = spatial_order(positions);
   const std::vector<Index> row_of = inverse_permutation(order);
-  Neighborhoods neighborhoods = permute_neighborhoods(original_order, order, row_of);
-  original_order = Neighborhoods{};
-  std::vector<Vec3> current = gather(positions, order);
-  std::vector<Vec3> next(current.size());
+  Neighborhoods neighborhoods =
+      build_reordered_neighborhoods(first_source, params.neighbors, order, row_of);
+  report.eps = neighborhoods.eps;
+  // `positions` itself holds the current step (reordered in place: no copy), `next` the
+  // other buffer. Whatever happens, the caller gets back the last completed step in its order.
+  permute_in_place(positions, order);
+  struct RestoreOrder {
+    std::vector<Vec3>& positions;
+    std::span<const Index> row_of;
+    ~RestoreOrder() {
+      try {
+        permute_in_place(positions, row_of);
+      } catch (...) {  // out of memory for the scratch bits while unwinding: leave as is
+      }
+    }
+  } restore{positions, row_of};
+
   auto measure_lambda = [&] {
     return params.flow.lambda > 0.0
                ? params.flow.lambda
-               : auto_lambda(current, neighborhoods, params.flow.lambda_auto_factor, row_of);
+               : auto_lambda(positions, neighborhoods, params.flow.lambda_auto_factor, row_of);
   };
   report.lambda = measure_lambda();
   report.seconds_neighbors += seconds_since(t0);
 
+  std::vector<Vec3> next(positions.size());
   for (int step = 0; step < params.steps; ++step) {
     if (params.rebuild_interval > 0 && step > 0 && step % params.rebuild_interval == 0) {
       t0 = std::chrono::steady_clock::now();
-      const Neighborhoods rebuilt = build_neighborhoods(scatter(current, order), params.neighbors);
-      neighborhoods = permute_neighborhoods(rebuilt, order, row_of);
+      neighborhoods = build_reordered_neighborhoods(scatter(positions, order), params.neighbors,
+                                                    order, row_of);
       report.eps = neighborhoods.eps;
       report.lambda = measure_lambda();
       ++report.rebuilds;
@@ -73,16 +84,16 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
     t0 = std::chrono::steady_clock::now();
     if (params.lambda_every_step && step > 0) report.lambda = measure_lambda();
     const StepStats stats =
-        euler_step(current, neighborhoods, {}, params.flow, report.lambda, next);
-    current.swap(next);
+        euler_step(positions, neighborhoods, {}, params.flow, report.lambda, next);
+    positions.swap(next);
     report.degenerate = stats.degenerate;
     report.seconds_steps += seconds_since(t0);
     ++report.steps;
     if (options.progress) options.progress(step + 1, params.steps);
   }
   next = std::vector<Vec3>{};
-  positions = scatter(current, order);
-  report.neighborhoods = permute_neighborhoods(neighborhoods, row_of, order);
+  permute_neighborhoods_in_place(neighborhoods, row_of, order);
+  report.neighborhoods = std::move(neighborhoods);
   return report;
 }
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "pointfair/kd_tree.hpp"
 #include "pointfair/parallel.hpp"
 
 namespace pointfair {
@@ -72,6 +73,86 @@ Neighborhoods permute_neighborhoods(const Neighborhoods& nb, std::span<const Ind
     }
   }, 8192);
   return out;
+}
+
+Neighborhoods build_reordered_neighborhoods(std::span<const Vec3> points, const NeighborParams& params,
+                                            std::span<const Index> order,
+                                            std::span<const Index> row_of) {
+  params.validate();
+  Neighborhoods nb;
+  {
+    const KdTree tree(points);
+    nb = build_neighborhoods(tree, order, params.k, resolve_eps(points, tree, params));
+  }
+  const auto stride = static_cast<std::size_t>(nb.stride);
+  parallel_for(nb.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t s = begin; s < end; ++s) {
+      Index* row = nb.indices.data() + s * stride;
+      for (std::size_t j = 0; j < nb.counts[s]; ++j) row[j] = row_of[row[j]];
+    }
+  }, 8192);
+  return nb;
+}
+
+namespace {
+
+// Applies the permutation "slot s takes the item from slot order[s]" in place, following each
+// cycle once: save(s) keeps slot s aside, move(to, from) copies a slot, restore(s) puts the
+// saved item into slot s.
+template <class Save, class Move, class Restore>
+void follow_cycles(std::size_t n, std::span<const Index> order, Save save, Move move, Restore restore) {
+  std::vector<bool> done(n, false);
+  for (std::size_t start = 0; start < n; ++start) {
+    if (done[start]) continue;
+    save(start);
+    std::size_t s = start;
+    while (true) {
+      done[s] = true;
+      const std::size_t from = order[s];
+      if (from == start) {
+        restore(s);
+        break;
+      }
+      move(s, from);
+      s = from;
+    }
+  }
+}
+
+}  // namespace
+
+void permute_in_place(std::vector<Vec3>& values, std::span<const Index> order) {
+  Vec3 saved;
+  follow_cycles(values.size(), order, [&](std::size_t s) { saved = values[s]; },
+                [&](std::size_t to, std::size_t from) { values[to] = values[from]; },
+                [&](std::size_t s) { values[s] = saved; });
+}
+
+void permute_neighborhoods_in_place(Neighborhoods& nb, std::span<const Index> order,
+                                    std::span<const Index> inverse) {
+  const auto stride = static_cast<std::size_t>(nb.stride);
+  parallel_for(nb.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t s = begin; s < end; ++s) {
+      Index* row = nb.indices.data() + s * stride;
+      for (std::size_t j = 0; j < nb.counts[s]; ++j) row[j] = inverse[row[j]];
+    }
+  }, 8192);
+  std::vector<Index> saved_row(stride);
+  std::uint16_t saved_count = 0;
+  follow_cycles(
+      nb.size(), order,
+      [&](std::size_t s) {
+        std::copy_n(nb.indices.data() + s * stride, stride, saved_row.data());
+        saved_count = nb.counts[s];
+      },
+      [&](std::size_t to, std::size_t from) {
+        std::copy_n(nb.indices.data() + from * stride, stride, nb.indices.data() + to * stride);
+        nb.counts[to] = nb.counts[from];
+      },
+      [&](std::size_t s) {
+        std::copy_n(saved_row.data(), stride, nb.indices.data() + s * stride);
+        nb.counts[s] = saved_count;
+      });
 }
 
 std::vector<Vec3> gather(std::span<const Vec3> in, std::span<const Index> order) {

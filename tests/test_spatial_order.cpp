@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstring>
 #include <numeric>
+#include <stdexcept>
 #include <vector>
 
 #include "pointfair/euler_step.hpp"
@@ -62,6 +63,38 @@ TEST(SpatialOrder, PermutedNeighbourhoodsNameTheSamePoints) {
   const Neighborhoods back = permute_neighborhoods(p, inverse, order);
   EXPECT_EQ(back.indices, nb.indices);
   EXPECT_EQ(back.counts, nb.counts);
+  // In place, both ways.
+  Neighborhoods in_place = nb;
+  permute_neighborhoods_in_place(in_place, order, inverse);
+  EXPECT_EQ(in_place.indices, p.indices);
+  EXPECT_EQ(in_place.counts, p.counts);
+  permute_neighborhoods_in_place(in_place, inverse, order);
+  EXPECT_EQ(in_place.indices, nb.indices);
+  // Built directly in the new order.
+  const Neighborhoods direct = build_reordered_neighborhoods(points, {.k = 12}, order, inverse);
+  EXPECT_EQ(direct.indices, p.indices);
+  EXPECT_EQ(direct.counts, p.counts);
+  std::vector<Vec3> values = points;
+  permute_in_place(values, order);
+  EXPECT_TRUE(same_bits(values, moved));
+}
+
+// A run stopped by an exception from the progress callback leaves the last completed step,
+// in the caller's order.
+TEST(SpatialOrder, StoppedRunLeavesLastCompletedStep) {
+  const auto input = noisy_cube(3000, 13);
+  SmoothParams params;
+  params.steps = 10;
+  std::vector<Vec3> stopped = input;
+  SmoothOptions options;
+  options.progress = [](int done, int) {
+    if (done == 3) throw std::runtime_error("stop");
+  };
+  EXPECT_THROW(smooth(stopped, params, options), std::runtime_error);
+  std::vector<Vec3> three = input;
+  params.steps = 3;
+  smooth(three, params);
+  EXPECT_TRUE(same_bits(stopped, three));
 }
 
 // smooth() (reordered internally) against plain Euler steps in the input order.

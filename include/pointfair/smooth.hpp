@@ -50,7 +50,9 @@ struct SmoothReport {
   Neighborhoods neighborhoods;
 };
 
-/// Runs the flow on `positions` in place. Throws ParamError on bad parameters.
+/// Runs the flow on `positions` in place. Throws ParamError on bad parameters. If anything
+/// throws during the steps (including `progress`, which may throw to stop a run), `positions`
+/// holds the last completed step.
 SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
                     const SmoothOptions& options = {});
 

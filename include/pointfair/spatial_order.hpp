@@ -24,6 +24,21 @@ std::vector<Index> inverse_permutation(std::span<const Index> order);
 Neighborhoods permute_neighborhoods(const Neighborhoods& nb, std::span<const Index> order,
                                     std::span<const Index> inverse);
 
+/// The same as nb = permute_neighborhoods(nb, order, inverse), without a second copy.
+void permute_neighborhoods_in_place(Neighborhoods& nb, std::span<const Index> order,
+                                    std::span<const Index> inverse);
+
+/// Neighbourhoods of `points` (built as build_neighborhoods would, canonical in the points'
+/// own indices) for the reordered cloud: row s belongs to point order[s], and every index j is
+/// replaced by row_of[j]. Needs no second copy of the lists.
+Neighborhoods build_reordered_neighborhoods(std::span<const Vec3> points, const NeighborParams& params,
+                                            std::span<const Index> order,
+                                            std::span<const Index> row_of);
+
+/// Reorders `values` in place so that values[s] becomes the old values[order[s]] (one bit
+/// of scratch per point). `inverse` undoes it.
+void permute_in_place(std::vector<Vec3>& values, std::span<const Index> order);
+
 /// out[s] = in[order[s]].
 std::vector<Vec3> gather(std::span<const Vec3> in, std::span<const Index> order);
 /// out[order[s]] = in[s].
