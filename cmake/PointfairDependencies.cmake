@@ -19,6 +19,7 @@ endif()
 
 if(POINTFAIR_BUILD_TESTS)
   find_package(GTest REQUIRED)
+  find_package(OpenMP QUIET)  # the tests also run the core with the OpenMP back end
 endif()
 if(POINTFAIR_BUILD_BENCH)
   find_package(benchmark REQUIRED)
