@@ -174,7 +174,7 @@ class SphereSurface final : public GroundTruth::Surface {
     s.normal = len > 0 ? Vec3(p / len) : Vec3(Vec3::UnitZ());
     s.point = r * s.normal;
     s.signed_distance = len - r;
-    s.k1 = s.k2 = -1.0 / r;
+    s.k1 = s.k2 = 1.0 / r;
     s.has_curvature = true;
     return s;
   }
@@ -198,8 +198,8 @@ class CylinderSurface final : public GroundTruth::Surface {
     s.point = r * radial + Vec3(0, 0, std::clamp(p.z(), -h, h));
     const double dist = (p - s.point).norm();
     s.signed_distance = (p - s.point).dot(radial) < 0 ? -dist : dist;
-    s.k1 = 0.0;
-    s.k2 = -1.0 / r;
+    s.k1 = 1.0 / r;
+    s.k2 = 0.0;
     s.has_curvature = true;
     return s;
   }
@@ -223,7 +223,7 @@ class TorusSurface final : public GroundTruth::Surface {
     s.point = ring + small * s.normal;
     s.signed_distance = d.norm() - small;
     const double cos_v = s.normal.dot(ring.normalized());
-    const double ka = -1.0 / small, kb = -cos_v / (big + small * cos_v);
+    const double ka = 1.0 / small, kb = cos_v / (big + small * cos_v);
     s.k1 = std::max(ka, kb);
     s.k2 = std::min(ka, kb);
     s.has_curvature = true;
@@ -254,8 +254,8 @@ class CylinderPlaneSurface final : public GroundTruth::Surface {
     s.normal = on_cylinder ? radial : Vec3(Vec3::UnitZ());
     const double dist = (p - s.point).norm();
     s.signed_distance = (p - s.point).dot(s.normal) < 0 ? -dist : dist;
-    s.k1 = 0.0;
-    s.k2 = on_cylinder ? -1.0 / r : 0.0;
+    s.k1 = on_cylinder ? 1.0 / r : 0.0;
+    s.k2 = 0.0;
     s.has_curvature = true;
     s.crease_distance = std::min(distance_to_segment(s.point, Vec3(-hl, r, 0), Vec3(hl, r, 0)),
                                  distance_to_segment(s.point, Vec3(-hl, -r, 0), Vec3(hl, -r, 0)));

@@ -52,16 +52,16 @@ TEST(GroundTruth, AnalyticSurfacesOfPointsMovedAlongTheNormal) {
   const GroundTruth sphere([] { auto t = named("sphere"); t.radius = 2.0; return t; }());
   const SurfacePoint s = sphere.closest(Vec3(0, 0, 2.0 + d));
   EXPECT_NEAR(s.signed_distance, d, kTight);
-  EXPECT_NEAR(s.k1, -0.5, kTight);
+  EXPECT_NEAR(s.k1, 0.5, kTight);
 
   const GroundTruth torus(named("torus"));
   const SurfacePoint outer = torus.closest(Vec3(1.4 + d, 0, 0));
   EXPECT_NEAR(outer.signed_distance, d, kTight);
-  EXPECT_NEAR(outer.k2, -1.0 / 0.4, kTight);
-  EXPECT_NEAR(outer.k1, -1.0 / 1.4, kTight);
+  EXPECT_NEAR(outer.k1, 1.0 / 0.4, kTight);
+  EXPECT_NEAR(outer.k2, 1.0 / 1.4, kTight);
   const SurfacePoint inner = torus.closest(Vec3(0, 0.6 - d, 0));
   EXPECT_NEAR(inner.signed_distance, d, kTight);
-  EXPECT_NEAR(inner.k1, 1.0 / 0.6, kTight);  // saddle side: positive in this convention
+  EXPECT_NEAR(inner.k2, -1.0 / 0.6, kTight);  // saddle side
 
   const GroundTruth cp(named("cylinder-plane"));
   EXPECT_NEAR(cp.closest(Vec3(0.3, 0.0, 1.0 + d)).signed_distance, d, kTight);

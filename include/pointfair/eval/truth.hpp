@@ -50,9 +50,9 @@ struct SurfacePoint {
   /// Distance from `point` to the nearest sharp crease (mesh edge with a dihedral angle above
   /// the sharp angle, or the analytic intersection line); +inf without creases.
   double crease_distance = std::numeric_limits<double>::infinity();
-  /// True principal curvatures k1 >= k2 at `point`, signed so that a surface bending away
-  /// from its normal (a sphere with outward normal) is negative — the sign convention of
-  /// kappa_ij = 2 <n, p_j - p_i> / |p_j - p_i|^2. Valid when has_curvature.
+  /// True principal curvatures k1 >= k2 at `point`, signed as compute_attributes reports
+  /// them: positive where the surface is convex with respect to `normal` (a sphere of
+  /// radius R with outward normals has +1/R). Valid when has_curvature.
   double k1 = 0.0;
   double k2 = 0.0;
   bool has_curvature = false;
