@@ -678,7 +678,6 @@ void Run::write_attributes(double lambda) {
     source.read_rows(first, count, block.data()->data());
     for (const Vec3& p : block) box.extend(p);
   }
-  const Vec3 centre = n_ > 0 ? Vec3(box.center()) : Vec3(Vec3::Zero());
   const std::string a = layout::run_attributes;
   h5::Dataset normal = file().dataset(a + "/normal"), d1 = file().dataset(a + "/d1"), d2 = file().dataset(a + "/d2");
   h5::Dataset k1 = file().dataset(a + "/k1"), k2 = file().dataset(a + "/k2");
@@ -688,32 +687,36 @@ void Run::write_attributes(double lambda) {
   std::vector<double> vk1, vk2, vmean, vlap;
   std::vector<std::uint8_t> vfeature;
   TileNeighbors scratch;
-  std::atomic<std::size_t> degenerate{0};
+  Neighborhoods extended;
+  std::size_t degenerate = 0;
   for (std::size_t t = 0; t < tiles_.size(); ++t) {
     const std::uint64_t rows = tiles_.rows(t), begin = tiles_.offsets[t];
     if (rows == 0) continue;
     const TileNeighbors& nb = neighbors_of(t, scratch);
     read_tile_positions(t, nb, source, local);
-    vn.resize(rows), vd1.resize(rows), vd2.resize(rows);
-    vk1.resize(rows), vk2.resize(rows), vmean.resize(rows), vlap.resize(rows), vfeature.resize(rows);
-    // The per-point body of compute_attributes (smooth.cpp), on the tile's local arrays.
-    parallel_for(rows, [&](std::size_t b, std::size_t e) {
-      std::size_t bad = 0;
-      for (std::size_t i = b; i < e; ++i) {
-        const PointState s = evaluate_point(local[i], nb.local.of(i), local, params_.flow, lambda, true);
-        if (!s.valid) ++bad;
-        const double sign = s.frame.normal.dot(local[i] - centre) < 0.0 ? -1.0 : 1.0;
-        vn[i] = sign * s.frame.normal;
-        vk1[i] = sign > 0 ? s.curvature.k1 : -s.curvature.k2;
-        vk2[i] = sign > 0 ? s.curvature.k2 : -s.curvature.k1;
-        vd1[i] = sign > 0 ? s.curvature.d1 : s.curvature.d2;
-        vd2[i] = sign > 0 ? s.curvature.d2 : s.curvature.d1;
-        vmean[i] = sign * s.curvature.mean;
-        vlap[i] = s.laplacian.norm();
-        vfeature[i] = static_cast<std::uint8_t>(s.feature);
-      }
-      degenerate.fetch_add(bad, std::memory_order_relaxed);
-    }, 1024);
+    // compute_attributes itself on the tile: the halo rows get no neighbours (they are
+    // evaluated elsewhere), and two extra points at the corners of the whole cloud's bounding
+    // box make its centre, which orients the normals, the in-core one.
+    const std::size_t extra = local.size() - rows + 2;
+    local.push_back(box.min());
+    local.push_back(box.max());
+    extended.stride = nb.local.stride;
+    extended.eps = nb.local.eps;
+    extended.indices = nb.local.indices;
+    extended.indices.resize(local.size() * static_cast<std::size_t>(extended.stride), 0);
+    extended.counts = nb.local.counts;
+    extended.counts.resize(local.size(), 0);
+    const PointAttributes pa = compute_attributes(local, extended, params_.flow, lambda);
+    degenerate += pa.degenerate - extra;
+    vn.assign(pa.normal.begin(), pa.normal.begin() + static_cast<std::ptrdiff_t>(rows));
+    vd1.assign(pa.d1.begin(), pa.d1.begin() + static_cast<std::ptrdiff_t>(rows));
+    vd2.assign(pa.d2.begin(), pa.d2.begin() + static_cast<std::ptrdiff_t>(rows));
+    vk1.assign(pa.k1.begin(), pa.k1.begin() + static_cast<std::ptrdiff_t>(rows));
+    vk2.assign(pa.k2.begin(), pa.k2.begin() + static_cast<std::ptrdiff_t>(rows));
+    vmean.assign(pa.mean_curvature.begin(), pa.mean_curvature.begin() + static_cast<std::ptrdiff_t>(rows));
+    vlap.assign(pa.laplacian_norm.begin(), pa.laplacian_norm.begin() + static_cast<std::ptrdiff_t>(rows));
+    vfeature.resize(rows);
+    for (std::size_t i = 0; i < rows; ++i) vfeature[i] = static_cast<std::uint8_t>(pa.feature[i]);
     normal.write_rows(begin, rows, vn.data()->data());
     d1.write_rows(begin, rows, vd1.data()->data());
     d2.write_rows(begin, rows, vd2.data()->data());
@@ -722,10 +725,12 @@ void Run::write_attributes(double lambda) {
     mean.write_rows(begin, rows, vmean.data());
     lap.write_rows(begin, rows, vlap.data());
     feature.write_rows(begin, rows, vfeature.data());
-    account(bytes(local) + 3 * bytes(vn) + 4 * bytes(vk1) + bytes(vfeature) + (caching_ ? 0 : scratch.bytes()));
+    account(bytes(local) + bytes(extended.indices) + bytes(extended.counts) +
+            pa.normal.size() * (9 * sizeof(double) + 4 * sizeof(double) + 1) + 3 * bytes(vn) + 4 * bytes(vk1) +
+            bytes(vfeature) + (caching_ ? 0 : scratch.bytes()));
     progress("attributes", t + 1, tiles_.size());
   }
-  file().set_attribute(layout::run_attributes, "degenerate", static_cast<std::int64_t>(degenerate.load()));
+  file().set_attribute(layout::run_attributes, "degenerate", static_cast<std::int64_t>(degenerate));
   file().set_attribute(layout::run_attributes, "lambda", lambda);
 }
 

@@ -37,15 +37,64 @@ bool intersects(const Box& a, double margin, const Box& b) {
 
 namespace {
 
+// Rows of a tile in the depth-first order of kd cells of at most this many points: points
+// near in space are near in memory, which the per-step kernels need to run at full speed
+// (the result does not depend on the row order).
+constexpr std::size_t kLocalityLeaf = 32;
+
+std::size_t split_axis(std::span<const Vec3> points, const std::vector<std::uint64_t>& order,
+                       std::size_t begin, std::size_t end);
+
+void locality_order(std::span<const Vec3> points, std::vector<std::uint64_t>& order, std::size_t begin,
+                    std::size_t end) {
+  if (end - begin <= kLocalityLeaf) {
+    std::sort(order.begin() + static_cast<std::ptrdiff_t>(begin), order.begin() + static_cast<std::ptrdiff_t>(end));
+    return;
+  }
+  const auto a = static_cast<Eigen::Index>(split_axis(points, order, begin, end));
+  const std::size_t mid = begin + (end - begin) / 2;
+  std::nth_element(order.begin() + static_cast<std::ptrdiff_t>(begin),
+                   order.begin() + static_cast<std::ptrdiff_t>(mid),
+                   order.begin() + static_cast<std::ptrdiff_t>(end),
+                   [&](std::uint64_t i, std::uint64_t j) {
+                     const double pi = points[i][a], pj = points[j][a];
+                     return pi < pj || (pi == pj && i < j);
+                   });
+  locality_order(points, order, begin, mid);
+  locality_order(points, order, mid, end);
+}
+
+void add_tile(std::span<const Vec3> points, std::vector<std::uint64_t>& order, std::size_t begin,
+              std::size_t end, Tiling& out) {
+  locality_order(points, order, begin, end);
+  out.offsets.push_back(end);
+  std::vector<Vec3> tile;
+  tile.reserve(end - begin);
+  for (std::size_t r = begin; r < end; ++r) tile.push_back(points[order[r]]);
+  out.bounds.push_back(bounds_of(tile));
+}
+
+std::size_t split_axis(std::span<const Vec3> points, const std::vector<std::uint64_t>& order,
+                       std::size_t begin, std::size_t end) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  Box box{inf, inf, inf, -inf, -inf, -inf};
+  for (std::size_t r = begin; r < end; ++r) {
+    const Vec3& p = points[order[r]];
+    for (std::size_t c = 0; c < 3; ++c) {
+      box[c] = std::min(box[c], p[static_cast<Eigen::Index>(c)]);
+      box[c + 3] = std::max(box[c + 3], p[static_cast<Eigen::Index>(c)]);
+    }
+  }
+  std::size_t axis = 0;
+  for (std::size_t c = 1; c < 3; ++c)
+    if (box[c + 3] - box[c] > box[axis + 3] - box[axis]) axis = c;
+  return axis;
+}
+
 void split(std::span<const Vec3> points, std::vector<std::uint64_t>& order, std::size_t begin,
            std::size_t end, std::uint64_t max_points, Tiling& out) {
   if (end - begin <= max_points) {
-    std::sort(order.begin() + static_cast<std::ptrdiff_t>(begin), order.begin() + static_cast<std::ptrdiff_t>(end));
-    out.offsets.push_back(end);
-    std::vector<Vec3> tile;
-    tile.reserve(end - begin);
-    for (std::size_t r = begin; r < end; ++r) tile.push_back(points[order[r]]);
-    out.bounds.push_back(bounds_of(tile));
+    add_tile(points, order, begin, end, out);
     return;
   }
   Box box;
@@ -120,12 +169,10 @@ Tiling make_tiling(std::span<const Vec3> points, const TilingParams& params) {
   std::stable_sort(t.order.begin(), t.order.end(),
                    [&](std::uint64_t i, std::uint64_t j) { return cell_of[i] < cell_of[j]; });
   std::size_t r = 0;
-  std::vector<Vec3> tile;
   for (std::uint64_t cell = 0; cell < cells; ++cell) {
-    tile.clear();
-    while (r < t.order.size() && cell_of[t.order[r]] == cell) tile.push_back(points[t.order[r++]]);
-    t.offsets.push_back(r);
-    t.bounds.push_back(bounds_of(tile));
+    const std::size_t begin = r;
+    while (r < t.order.size() && cell_of[t.order[r]] == cell) ++r;
+    add_tile(points, t.order, begin, r, t);
   }
   return t;
 }

@@ -1,8 +1,9 @@
 #pragma once
 // Spatial tiles: a partition of a cloud into boxes of bounded point count, the unit of
-// out-of-core work. Rows of a tiled cloud are grouped by tile; inside a tile they keep the
-// input order (ascending original index), which keeps the neighbour-list tie rule (ties by
-// the smaller original index) valid for tile-local arrays.
+// out-of-core work. Rows of a tiled cloud are grouped by tile; inside a tile they follow the
+// depth-first order of small kd cells (near in space, near in memory). Results never depend
+// on the row order: neighbour lists are built over arrays sorted by original index (the tie
+// rule of the canonical order) and each point's step depends only on its own list.
 #include <array>
 #include <cstdint>
 #include <span>
