@@ -42,6 +42,13 @@ std::size_t FileReader::read_from_file(char* out, std::size_t size) {
   if (got < size && std::ferror(file_)) {
     fail(path_, "read failed: " + system_error_text(errno != 0 ? errno : EIO));
   }
+  read_total_ += got;
+  // The end of the file before the size it had when opened: cut while being read. Without
+  // this check a text file cut at a line break would read as a shorter, valid file.
+  if (got < size && read_total_ < size_) {
+    fail(path_, "file shrank while being read (" + std::to_string(size_) + " bytes when opened, " +
+                    std::to_string(read_total_) + " found)");
+  }
   return got;
 }
 
@@ -106,6 +113,7 @@ std::uint64_t FileReader::skip(std::uint64_t size) {
     if (::fseeko(file_, static_cast<off_t>(rest), SEEK_CUR) != 0) {
       fail(path_, "read failed: " + system_error_text(errno));
     }
+    read_total_ += rest;  // the file position moved past these bytes
     done += rest;
   }
   consumed_ += done;

@@ -19,7 +19,9 @@ class FileReader {
   FileReader& operator=(const FileReader&) = delete;
 
   const std::filesystem::path& path() const { return path_; }
-  /// Size of the file when it was opened.
+  /// Size of the file when it was opened. A file found shorter than this while reading
+  /// (it shrank) is an IoError "file shrank while being read"; bytes appended after the
+  /// open are read like any others (the formats' readers decide what to do with them).
   std::uint64_t size() const { return size_; }
   /// Bytes not yet returned by next_line/read/skip.
   std::uint64_t remaining() const { return consumed_ < size_ ? size_ - consumed_ : 0; }
@@ -44,6 +46,7 @@ class FileReader {
   std::uint64_t size_ = 0;
   std::uint64_t consumed_ = 0;
   std::uint64_t line_number_ = 0;
+  std::uint64_t read_total_ = 0;  // bytes read from the file so far
   std::vector<char> buffer_;
   std::size_t begin_ = 0;  // first unread byte in buffer_
   std::size_t end_ = 0;    // one past the last valid byte in buffer_

@@ -104,6 +104,22 @@ void write_container(const fs::path& file, const io::PointTable& table, const Im
 
 std::uint64_t point_count(const h5::File& file) { return file.dataset(layout::positions).rows(); }
 
+namespace {
+
+// A dataset's shape sizes allocations only once its stored bytes can hold it: a hostile or
+// corrupt shape (10^15 rows in a file of a few kilobytes: HDF5 allocates chunks lazily) must
+// fail here, not in an allocation of petabytes. Deflate compresses at most ~1032:1.
+void require_stored(const h5::File& file, const h5::Dataset& d) {
+  const double claimed = static_cast<double>(d.rows()) * static_cast<double>(d.width()) *
+                         static_cast<double>(d.element_bytes());
+  const double stored = static_cast<double>(d.stored_bytes());
+  if (claimed > 1032.0 * stored + 4096.0)
+    file.fail(d.path(), "shape claims " + std::to_string(d.rows()) + " rows but the file stores only " +
+                            std::to_string(d.stored_bytes()) + " bytes of them");
+}
+
+}  // namespace
+
 TileTable read_tile_table(const h5::File& file) {
   if (!file.exists("/") || !file.has_attribute("/", "pointfair_format") ||
       file.string_attribute("/", "pointfair_format") != layout::format_name)
@@ -115,6 +131,9 @@ TileTable read_tile_table(const h5::File& file) {
   TileTable t;
   const h5::Dataset off = file.dataset(layout::tile_offsets);
   const h5::Dataset bnd = file.dataset(layout::tile_bounds);
+  require_stored(file, off);
+  require_stored(file, bnd);
+  require_stored(file, file.dataset(layout::positions));  // the point count everything is sized by
   t.offsets = off.read_all<std::uint64_t>();
   if (bnd.width() != 6 || t.offsets.size() != bnd.rows() + 1)
     file.fail(layout::tile_bounds, "tile table shapes disagree");

@@ -17,9 +17,15 @@ namespace {
 static_assert(std::is_same_v<hid, hid_t>, "hid_t is 64 bits since HDF5 1.10");
 
 // libhdf5 prints its error stack to stderr by default; our errors are one line each.
+// Its exit-time cleanup is turned off: every handle here closes itself, and after a failed
+// write (a full disk) a dataset whose close failed stays registered, and closing it again
+// at exit crashed inside libhdf5 (H5D_close, after the error had been reported).
 void quiet_hdf5() {
   static std::once_flag once;
-  std::call_once(once, [] { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); });
+  std::call_once(once, [] {
+    H5dont_atexit();  // fails harmlessly if the library was already in use
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  });
 }
 
 hid_t memory_type(Type t) {
@@ -378,6 +384,13 @@ Dataset::Dataset(const File* file, std::string path, Handle handle)
 }
 
 void Dataset::fail(std::string_view problem) const { file_->fail(path_, problem); }
+
+std::uint64_t Dataset::stored_bytes() const { return H5Dget_storage_size(handle_.get()); }
+
+std::uint64_t Dataset::element_bytes() const {
+  Handle type(H5Dget_type(handle_.get()));
+  return H5Tget_size(type.get());
+}
 
 void Dataset::read_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, void* out) const {
   if (count == 0) return;

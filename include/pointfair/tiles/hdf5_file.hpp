@@ -78,6 +78,10 @@ class Dataset {
   std::uint64_t width() const { return width_; }
   Type type() const { return type_; }
   const std::string& path() const { return path_; }
+  /// Bytes the file holds for this dataset (H5Dget_storage_size: allocated chunks or extent),
+  /// and bytes of one element in the file. A shape can claim far more than is stored.
+  std::uint64_t stored_bytes() const;
+  std::uint64_t element_bytes() const;
 
   /// Rows [first, first + count) into `out` (count * width elements), converted to T.
   template <class T>
