@@ -1,7 +1,7 @@
 // pointfair: denoise point clouds with the anisotropic mean curvature flow of Lange & Polthier.
 //
 // Exit codes: 0 success; 1 unexpected failure; 2 bad command line or parameter;
-// 3 input/output error (the message names the file).
+// 3 input/output error (the message names the file); 130/143 interrupted by SIGINT/SIGTERM.
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -11,6 +11,7 @@
 
 #include "cli/arguments.hpp"
 #include "cli/commands.hpp"
+#include "cli/interrupt.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/version.hpp"
@@ -35,7 +36,8 @@ constexpr const char* kUsage =
     "  version            print the version\n"
     "\n"
     "'pointfair COMMAND --help' lists a command's options with units and defaults.\n"
-    "Exit codes: 0 ok, 1 unexpected failure, 2 bad arguments, 3 input/output error.\n";
+    "Exit codes: 0 ok, 1 unexpected failure, 2 bad arguments, 3 input/output error,\n"
+    "130/143 interrupted by SIGINT/SIGTERM (between steps; no partial output is left).\n";
 
 }  // namespace
 
@@ -47,6 +49,8 @@ int main(int argc, char** argv) {
   }
   const std::string command = argv[1];
   const cli::Args args(argv + 2, argv + argc);
+  // SIGINT/SIGTERM end a run between steps with exit code 130/143 (cli/interrupt.hpp).
+  cli::install_interrupt_handlers();
   try {
     if (command == "smooth") return cli::run_smooth(args);
     if (command == "curvature") return cli::run_curvature(args);
@@ -66,6 +70,9 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "pointfair: unknown command '%s'\n\n%s", command.c_str(), kUsage);
     return 2;
+  } catch (const cli::Interrupted& e) {
+    std::fprintf(stderr, "error: %s\n", e.what());
+    return e.exit_code();
   } catch (const cli::UsageError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());
     return 2;

@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "run_support.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/version.hpp"
@@ -31,11 +32,14 @@ int run_curvature(const Args& args) {
 
   const auto t0 = std::chrono::steady_clock::now();
   io::PointTable table = read_input(input, output.quiet);
+  throw_if_interrupted();
   const Neighborhoods neighborhoods = build_neighborhoods(table.positions, params.neighbors);
+  throw_if_interrupted();
   const double lambda = resolve_lambda(table.positions, neighborhoods, params.flow);
   const PointAttributes attributes =
       compute_attributes(table.positions, neighborhoods, params.flow, lambda);
   add_result_columns(table, attributes, output, true);
+  throw_if_interrupted();
   write_output(output_path, table, output, input);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 

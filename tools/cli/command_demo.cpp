@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "progress.hpp"
 #include "run_support.hpp"
 #include "pointfair/mesh_distance.hpp"
@@ -121,9 +122,14 @@ int run_demo(const Args& args) {
     std::vector<Vec3> positions = noisy;
     Progress progress("demo: " + to_string(flow) + " step", !output.quiet);
     SmoothOptions options;
-    options.progress = [&](int done, int total) { progress.update(done, total); };
+    // Files written before the signal are complete; summary.json is written last.
+    options.progress = [&](int done, int total) {
+      throw_if_interrupted("summary.json not written");
+      progress.update(done, total);
+    };
     const auto t0 = std::chrono::steady_clock::now();
     const SmoothReport report = smooth(positions, run, options);
+    throw_if_interrupted("summary.json not written");
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     progress.finish();
     const std::string file = "octahedron_" + to_string(flow) + ".ply";
@@ -143,6 +149,7 @@ int run_demo(const Args& args) {
     runs.add(to_string(flow), r);
   }
 
+  throw_if_interrupted("summary.json not written");
   JsonObject input;
   input.add("shape", "octahedron, 4-1 subdivision").add("level", level).add("points", clean.size())
       .add("noise_percent_of_diagonal", noise_percent).add("seed", seed).add("bbox_diagonal", diagonal)

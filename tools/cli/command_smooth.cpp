@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "progress.hpp"
 #include "run_support.hpp"
 #include "pointfair/parallel.hpp"
@@ -57,7 +58,11 @@ int run_smooth(const Args& args) {
   Progress progress("smooth: step", !output.quiet);
   SmoothOptions options;
   options.neighbor_reference = reference_positions;
-  options.progress = [&](int done, int total) { progress.update(done, total); };
+  options.progress = [&](int done, int total) {
+    throw_if_interrupted();  // unwinds out of smooth(): nothing has been written yet
+    progress.update(done, total);
+  };
+  throw_if_interrupted();
   SmoothReport report = smooth(table.positions, params, options);
   progress.finish();
 
@@ -71,6 +76,7 @@ int run_smooth(const Args& args) {
     add_result_columns(table, attributes, output, output.attributes);
   }
   const double seconds_attributes = seconds_since(t0);
+  throw_if_interrupted();
   t0 = std::chrono::steady_clock::now();
   write_output(output_path, table, output, input);
   const double seconds_write = seconds_since(t0);

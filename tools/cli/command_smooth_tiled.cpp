@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "out_of_core.hpp"
 #include "progress.hpp"
 #include "run_support.hpp"
@@ -102,7 +103,13 @@ int run_smooth_out_of_core(const Args& args) {
 
   Progress progress("smooth (out of core):", !output.quiet);
   ooc.attributes = true;
+  // A signal stops the run after the phase's current tile or step: what is committed stays in
+  // the partial file, and --resume continues from it (as after a kill).
+  const std::string resume_hint =
+      "the run so far is kept in " + tiles::partial_name(run_output).filename().string() +
+      ": run the same command with --resume to continue";
   ooc.progress = [&](const std::string& phase, std::uint64_t done, std::uint64_t total) {
+    throw_if_interrupted(resume_hint);
     if (phase == "step") progress.update(static_cast<long long>(done), static_cast<long long>(total));
   };
   const tiles::OutOfCoreReport report = tiles::smooth_out_of_core(run_input, run_output, params, ooc);
