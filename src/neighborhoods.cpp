@@ -64,10 +64,18 @@ Neighborhoods build_rows(const KdTree& tree, std::span<const Index> queries,
   parallel_for(queries.size(), [&](std::size_t begin, std::size_t end) {
     std::vector<Index> idx(static_cast<std::size_t>(want));
     std::vector<double> d2(static_cast<std::size_t>(want));
+    // Consecutive queries are near each other (leaf or Morton order), so the previous query's
+    // k-th distance, widened, is a good first search radius: it prunes the tree from the start.
+    // If fewer than k + 1 points lie within it, the query is repeated with the full radius;
+    // if k + 1 do, they are exactly the k + 1 nearest, so the lists do not change.
+    double guess = max_d2;
     for (std::size_t v = begin; v < end; ++v) {
       const std::size_t r = visit.empty() ? v : visit[v];
       const Index self = queries[r];
-      const int found = tree.nearest(points[self], want, max_d2, idx.data(), d2.data());
+      int found = 0;
+      if (guess < max_d2) found = tree.nearest(points[self], want, guess, idx.data(), d2.data());
+      if (found < want) found = tree.nearest(points[self], want, max_d2, idx.data(), d2.data());
+      guess = found == want ? 2.0 * d2[static_cast<std::size_t>(want - 1)] : max_d2;
       Index* out = result.indices.data() + r * static_cast<std::size_t>(k);
       int count = 0;
       for (int j = 0; j < found && count < k; ++j) {
