@@ -1,0 +1,318 @@
+// The pointfair executable in a hostile environment: an unwritable output, an output that is
+// the input under another name, a full disk (a file-size limit), SIGINT/SIGTERM in the middle
+// of a run. Always: a clear one-line message, a non-zero exit code, the input untouched, and
+// no output that looks complete when it is not.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "pointfair/io/point_file.hpp"
+#include "pointfair/shapes.hpp"
+
+namespace fs = std::filesystem;
+using namespace pointfair;
+
+namespace {
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+struct Child {
+  pid_t pid = -1;
+  fs::path out, err;
+};
+
+struct Result {
+  int exit_code = -1;  // -signal when a signal ended the process
+  std::string out, err;
+};
+
+class HostileEnvironment : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::random_device rd;
+    dir_ = fs::temp_directory_path() / ("pointfair_env_" + std::to_string(rd()));
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Starts the executable with `args`; stdout/stderr go to files. `file_size_limit` (bytes)
+  // sets RLIMIT_FSIZE in the child with SIGXFSZ ignored, so writes past it fail with EFBIG
+  // as on a full disk.
+  Child start(const std::vector<std::string>& args, std::optional<rlim_t> file_size_limit = {}) {
+    Child c;
+    c.out = dir_ / ("stdout_" + std::to_string(serial_));
+    c.err = dir_ / ("stderr_" + std::to_string(serial_++));
+    const pid_t pid = fork();
+    if (pid == 0) {
+      if (file_size_limit) {
+        signal(SIGXFSZ, SIG_IGN);
+        const rlimit limit{*file_size_limit, *file_size_limit};
+        setrlimit(RLIMIT_FSIZE, &limit);
+      }
+      if (!freopen(c.out.c_str(), "w", stdout) || !freopen(c.err.c_str(), "w", stderr)) _exit(126);
+      std::vector<std::string> copy = args;
+      std::string exe = POINTFAIR_EXE;
+      std::vector<char*> argv{exe.data()};
+      for (auto& a : copy) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv(exe.c_str(), argv.data());
+      _exit(127);
+    }
+    c.pid = pid;
+    return c;
+  }
+
+  static Result wait_for(const Child& c) {
+    int status = 0;
+    waitpid(c.pid, &status, 0);
+    Result r;
+    r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+    r.out = slurp(c.out);
+    r.err = slurp(c.err);
+    fs::remove(c.out);
+    fs::remove(c.err);
+    return r;
+  }
+
+  Result run(const std::vector<std::string>& args, std::optional<rlim_t> file_size_limit = {}) {
+    return wait_for(start(args, file_size_limit));
+  }
+
+  // True once the child catches both SIGINT and SIGTERM (its handlers are installed), false
+  // if it exited first. Reads the signal mask in /proc; no time limit.
+  static bool wait_for_handlers(pid_t pid) {
+    const unsigned long long wanted = (1ull << (SIGINT - 1)) | (1ull << (SIGTERM - 1));
+    for (;;) {
+      std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+      std::string line;
+      bool zombie = !status;
+      while (std::getline(status, line)) {
+        if (line.starts_with("State:") && line.find('Z') != std::string::npos) zombie = true;
+        if (line.starts_with("SigCgt:")) {
+          const unsigned long long caught = std::stoull(line.substr(7), nullptr, 16);
+          if ((caught & wanted) == wanted) return true;
+        }
+      }
+      if (zombie) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
+
+  fs::path write_cloud(const std::string& name, std::size_t n) {
+    io::PointTable t;
+    t.positions = sample_sphere(n, 1.0, 3).points;
+    add_noise(t.positions, 0.01, 4);
+    const fs::path p = dir_ / name;
+    io::write_points(p, t);
+    return p;
+  }
+
+  // Files in the test folder other than `keep` (stdout/stderr captures excluded).
+  std::vector<std::string> other_files(std::initializer_list<std::string> keep) const {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir_)) {
+      const std::string name = e.path().filename().string();
+      if (name.starts_with("stdout_") || name.starts_with("stderr_")) continue;
+      if (std::find(keep.begin(), keep.end(), name) == keep.end()) names.push_back(name);
+    }
+    return names;
+  }
+
+  fs::path dir_;
+  int serial_ = 0;
+};
+
+std::string joined(const std::vector<std::string>& names) {
+  std::string s;
+  for (const auto& n : names) s += n + " ";
+  return s;
+}
+
+// One line on stderr naming `name`.
+void expect_one_line_naming(const Result& r, const std::string& name) {
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "expected one line, got: " << r.err;
+  EXPECT_NE(r.err.find(name), std::string::npos) << r.err;
+}
+
+}  // namespace
+
+TEST_F(HostileEnvironment, UnwritableOutputPathsFailCleanly) {
+  const fs::path in = write_cloud("in.ply", 500);
+  const std::string before = slurp(in);
+  std::ofstream(dir_ / "plain_file") << "x";
+  const std::vector<fs::path> outputs = {
+      dir_ / "plain_file" / "out.ply",  // a path through a regular file
+      dir_ / "missing" / "out.ply",     // a folder that does not exist
+      dir_,                             // a folder
+      "/proc/pointfair_out.ply",        // a file system that takes no new files
+  };
+  for (const std::string command : {"smooth", "curvature"}) {
+    for (const fs::path& out : outputs) {
+      SCOPED_TRACE(command + " " + out.string());
+      const Result r = run({command, in.string(), out.string(), "--steps", "1", "--quiet"});
+      EXPECT_EQ(r.exit_code, 3) << r.err;
+      expect_one_line_naming(r, out.filename().string());
+      EXPECT_EQ(slurp(in), before);
+    }
+  }
+  EXPECT_EQ(joined(other_files({"in.ply", "plain_file"})), "");
+}
+
+TEST_F(HostileEnvironment, OutputThatIsTheInputUnderAnotherNameIsRefused) {
+  const fs::path in = write_cloud("in.ply", 500);
+  const std::string before = slurp(in);
+  fs::create_directories(dir_ / "sub");
+  fs::create_symlink(in, dir_ / "link.ply");
+  fs::create_hard_link(in, dir_ / "hard.ply");
+  const std::vector<std::string> same = {
+      in.string(), (dir_ / "sub" / ".." / "in.ply").string(), (dir_ / "." / "in.ply").string(),
+      (dir_ / "link.ply").string(), (dir_ / "hard.ply").string()};
+  for (const auto& out : same) {
+    for (const std::vector<std::string>& extra :
+         {std::vector<std::string>{"smooth"}, {"curvature"}, {"smooth", "--memory-budget", "1K"}}) {
+      SCOPED_TRACE(extra.back() + " -> " + out);
+      std::vector<std::string> args = {extra[0], in.string(), out, "--steps", "1", "--quiet"};
+      args.insert(args.end(), extra.begin() + 1, extra.end());
+      const Result r = run(args);
+      EXPECT_EQ(r.exit_code, 3) << r.err;
+      EXPECT_NE(r.err.find("overwrite the input"), std::string::npos) << r.err;
+      EXPECT_EQ(slurp(in), before);
+    }
+  }
+  EXPECT_EQ(joined(other_files({"in.ply", "sub", "link.ply", "hard.ply"})), "");
+}
+
+TEST_F(HostileEnvironment, FullDiskWhileWritingLeavesNoOutput) {
+  // The output of 20,000 points with attributes is ~1.6 MB; the limit allows 64 KiB per file.
+  const fs::path in = write_cloud("in.ply", 20000);
+  const std::string before = slurp(in);
+  for (const std::string out : {"out.ply", "out.xyz", "out.csv"}) {
+    for (const std::string command : {"smooth", "curvature"}) {
+      SCOPED_TRACE(command + " " + out);
+      std::vector<std::string> args = {command, in.string(), (dir_ / out).string(), "--quiet"};
+      if (command == "smooth") args.insert(args.end(), {"--steps", "2", "--attributes"});
+      const Result r = run(args, rlim_t{64} << 10);
+      EXPECT_EQ(r.exit_code, 3) << r.err;
+      expect_one_line_naming(r, out);
+      EXPECT_NE(r.err.find("File too large"), std::string::npos) << r.err;
+      EXPECT_EQ(slurp(in), before);
+      EXPECT_EQ(joined(other_files({"in.ply"})), "");
+    }
+  }
+}
+
+TEST_F(HostileEnvironment, FullDiskDuringAnOutOfCoreRunFailsCleanly) {
+  const fs::path in = write_cloud("in.ply", 20000);
+  const std::string before = slurp(in);
+  const Result r = run({"smooth", in.string(), (dir_ / "out.ply").string(), "--memory-budget", "1M",
+                        "--steps", "2", "--quiet"},
+                       rlim_t{256} << 10);
+  // Was: the error line, then a crash inside libhdf5's exit-time cleanup (SIGSEGV).
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_EQ(r.err.find("error: "), 0u) << r.err;
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
+  EXPECT_EQ(slurp(in), before);
+  EXPECT_EQ(joined(other_files({"in.ply"})), "");
+}
+
+TEST_F(HostileEnvironment, SigintAndSigtermStopASmoothRunCleanly) {
+  const fs::path in = write_cloud("in.ply", 20000);
+  const std::string before = slurp(in);
+  for (const int sig : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(sig);
+    // A million steps: the run is always interrupted, whenever the signal arrives.
+    const Child c = start({"smooth", in.string(), (dir_ / "out.ply").string(), "--steps", "1000000"});
+    ASSERT_TRUE(wait_for_handlers(c.pid));
+    kill(c.pid, sig);
+    const Result r = wait_for(c);
+    EXPECT_EQ(r.exit_code, 128 + sig) << r.err;
+    const std::string name = sig == SIGINT ? "SIGINT" : "SIGTERM";
+    EXPECT_NE(r.err.find("error: interrupted by " + name + "; no output written"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir_ / "out.ply"));
+    EXPECT_EQ(slurp(in), before);
+    EXPECT_EQ(joined(other_files({"in.ply"})), "");
+  }
+}
+
+TEST_F(HostileEnvironment, SignalDuringCurvatureOrDemoLeavesOnlyCompleteFiles) {
+  const fs::path in = write_cloud("in.ply", 20000);
+  const std::string before = slurp(in);
+  const Child c = start({"curvature", in.string(), (dir_ / "out.ply").string(), "--quiet"});
+  ASSERT_TRUE(wait_for_handlers(c.pid));
+  kill(c.pid, SIGINT);
+  const Result r = wait_for(c);
+  // Interrupted, or finished before the signal arrived: then the output is complete.
+  if (r.exit_code == 130) {
+    EXPECT_FALSE(fs::exists(dir_ / "out.ply"));
+  } else {
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    EXPECT_EQ(io::read_points(dir_ / "out.ply").size(), 20000u);
+  }
+  EXPECT_EQ(slurp(in), before);
+
+  const Child d = start({"demo", "--out", (dir_ / "demo").string(), "--level", "5", "--steps", "1000000"});
+  ASSERT_TRUE(wait_for_handlers(d.pid));
+  kill(d.pid, SIGTERM);
+  const Result rd = wait_for(d);
+  EXPECT_EQ(rd.exit_code, 143) << rd.err;
+  EXPECT_NE(rd.err.find("interrupted by SIGTERM; summary.json not written"), std::string::npos) << rd.err;
+  EXPECT_FALSE(fs::exists(dir_ / "demo" / "summary.json"));
+  EXPECT_FALSE(fs::exists(dir_ / "demo" / "octahedron_aniso.ply"));
+  if (fs::exists(dir_ / "demo")) {
+    for (const auto& e : fs::directory_iterator(dir_ / "demo"))
+      EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+  }
+}
+
+TEST_F(HostileEnvironment, SigintDuringAnOutOfCoreRunKeepsAResumableFile) {
+  const fs::path in = write_cloud("in.ply", 3000);
+  const fs::path scan = dir_ / "scan.h5";
+  ASSERT_EQ(run({"import", in.string(), scan.string(), "--tile-points", "500", "--quiet"}).exit_code, 0);
+  const std::string scan_before = slurp(scan);
+  const std::vector<std::string> method = {"--steps", "400", "--quiet"};
+  auto with = [&](std::vector<std::string> head, const std::vector<std::string>& tail) {
+    head.insert(head.end(), tail.begin(), tail.end());
+    return head;
+  };
+  const fs::path out = dir_ / "run.h5";
+  const Child c = start(with({"smooth", scan.string(), out.string()}, method));
+  ASSERT_TRUE(wait_for_handlers(c.pid));
+  // Wait for the partial file, so that the signal arrives after the run has started.
+  while (!fs::exists(dir_ / "run.h5.partial") && !fs::exists(out)) std::this_thread::yield();
+  kill(c.pid, SIGINT);
+  const Result r = wait_for(c);
+  EXPECT_EQ(slurp(scan), scan_before);
+  if (r.exit_code == 0) GTEST_SKIP() << "the run finished before the signal arrived";
+  EXPECT_EQ(r.exit_code, 130) << r.err;
+  EXPECT_NE(r.err.find("interrupted by SIGINT; the run so far is kept in run.h5.partial"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  ASSERT_TRUE(fs::exists(dir_ / "run.h5.partial"));
+
+  const Result resumed = run(with({"smooth", scan.string(), out.string(), "--resume"}, method));
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
+  const Result whole = run(with({"smooth", scan.string(), (dir_ / "whole.h5").string()}, method));
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  const fs::path a = dir_ / "a.ply", b = dir_ / "b.ply";
+  ASSERT_EQ(run({"export", out.string(), a.string(), "--quiet"}).exit_code, 0);
+  ASSERT_EQ(run({"export", (dir_ / "whole.h5").string(), b.string(), "--quiet"}).exit_code, 0);
+  EXPECT_EQ(slurp(a), slurp(b));
+}
