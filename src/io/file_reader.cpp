@@ -32,7 +32,8 @@ FileReader::FileReader(std::filesystem::path path) : path_(std::move(path)) {
   size_ = static_cast<std::uint64_t>(info.st_size);
   // This class does its own buffering; a second stdio buffer would only add copies.
   std::setvbuf(file_, nullptr, _IONBF, 0);
-  buffer_.resize(kBufferSize);
+  // A small file gets a small buffer (refill() grows it for a long line or a growing file).
+  buffer_.resize(static_cast<std::size_t>(std::clamp<std::uint64_t>(size_ + 1, 4096, kBufferSize)));
 }
 
 FileReader::~FileReader() { std::fclose(file_); }

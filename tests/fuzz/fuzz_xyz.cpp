@@ -1,0 +1,29 @@
+// libFuzzer target: the XYZ/CSV text reader and the OFF mesh reader on arbitrary bytes.
+// Expected outcomes: a table or an IoError.
+#include <cstdint>
+#include <cstdlib>
+
+#include "fuzz_input.hpp"
+#include "pointfair/io/mesh.hpp"
+#include "pointfair/io/xyz.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace pointfair;
+  const fuzz::MemoryFile file(data, size);
+  try {
+    const io::PointTable table = io::read_xyz(file.path());
+    for (const Vec3& p : table.positions)
+      if (!p.allFinite()) std::abort();
+    for (const io::Attribute& a : table.attributes)
+      if (a.values.size() != table.size()) std::abort();
+  } catch (const io::IoError&) {
+  }
+  try {
+    const TriangleMesh mesh = io::read_off_mesh(file.path());
+    for (const auto& t : mesh.triangles)
+      for (const auto i : t)
+        if (static_cast<std::size_t>(i) >= mesh.vertices.size()) std::abort();
+  } catch (const io::IoError&) {
+  }
+  return 0;
+}
