@@ -29,13 +29,22 @@ Rgb hue_colour(double value, double low, double high) {
   return {byte(r), byte(g), byte(b)};
 }
 
-std::vector<Rgb> colour_by_scalar(std::span<const double> values) {
-  double low = std::numeric_limits<double>::infinity();
-  double high = -low;
-  for (const double v : values) {
-    if (!std::isfinite(v)) continue;
-    low = std::min(low, v);
-    high = std::max(high, v);
+std::vector<Rgb> colour_by_scalar(std::span<const double> values, double clip) {
+  std::vector<double> finite;
+  finite.reserve(values.size());
+  for (const double v : values)
+    if (std::isfinite(v)) finite.push_back(v);
+  double low = 0.0, high = 0.0;
+  if (!finite.empty()) {
+    clip = std::clamp(clip, 0.0, 0.5);
+    const auto last = static_cast<double>(finite.size() - 1);
+    const auto at = [&](double q) {
+      auto it = finite.begin() + static_cast<std::ptrdiff_t>(std::lround(q * last));
+      std::nth_element(finite.begin(), it, finite.end());
+      return *it;
+    };
+    low = at(clip);
+    high = at(1.0 - clip);
   }
   std::vector<Rgb> colours(values.size());
   for (std::size_t i = 0; i < values.size(); ++i) colours[i] = hue_colour(values[i], low, high);

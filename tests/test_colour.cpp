@@ -77,4 +77,20 @@ TEST(Colour, ColourByScalarUsesFiniteRange) {
 }
 
 }  // namespace
+
+// Clipping: the 1% of outliers at each end no longer decide the colour range.
+TEST(Colour, ClippedRangeIgnoresOutliers) {
+  std::vector<double> values(1000);
+  for (std::size_t i = 0; i < values.size(); ++i) values[i] = static_cast<double>(i % 100);
+  values[0] = -1e6;
+  values[1] = 1e6;
+  const std::vector<Rgb> paper = colour_by_scalar(values);
+  const std::vector<Rgb> clipped = colour_by_scalar(values, 0.01);
+  // With min-max, 0 and 99 get nearly the same colour; clipped, they are the range's ends.
+  EXPECT_EQ(paper[100], paper[199]);
+  EXPECT_EQ(clipped[100], (Rgb{255, 0, 0}));
+  EXPECT_EQ(clipped[199], hue_colour(1.0, 0.0, 1.0));
+  EXPECT_EQ(clipped[1], hue_colour(1.0, 0.0, 1.0));  // clamped
+}
+
 }  // namespace pointfair

@@ -10,7 +10,10 @@
 #include "interrupt.hpp"
 #include "progress.hpp"
 #include "run_support.hpp"
+#include "pointfair/io/atomic_file.hpp"
 #include "pointfair/mesh_distance.hpp"
+#include "pointfair/render/png.hpp"
+#include "pointfair/render/splats.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/version.hpp"
@@ -65,6 +68,19 @@ io::PointTable coloured_table(std::span<const Vec3> positions, const Neighborhoo
   return table;
 }
 
+// The red/green/blue columns of a table as colours (white where it has none).
+std::vector<Rgb> table_colours(const io::PointTable& table) {
+  std::vector<Rgb> colours(table.size(), Rgb{255, 255, 255});
+  const io::Attribute* r = table.find("red");
+  const io::Attribute* g = table.find("green");
+  const io::Attribute* b = table.find("blue");
+  if (!r || !g || !b) return colours;
+  for (std::size_t i = 0; i < colours.size(); ++i)
+    colours[i] = {static_cast<std::uint8_t>(r->values[i]), static_cast<std::uint8_t>(g->values[i]),
+                  static_cast<std::uint8_t>(b->values[i])};
+  return colours;
+}
+
 }  // namespace
 
 int run_demo(const Args& args) {
@@ -108,11 +124,13 @@ int run_demo(const Args& args) {
   std::filesystem::create_directories(out_dir);
   const std::filesystem::path dir(out_dir);
   std::vector<CloudScore> scores;
+  std::vector<io::PointTable> tables;  // noisy, anisotropic, isotropic: for the picture
   scores.push_back(score("noisy input", noisy, clean, band, diagonal));
   {
     const Neighborhoods nb = build_neighborhoods(noisy, params.neighbors);
     const double lambda = resolve_lambda(noisy, nb, params.flow);
-    write_output(dir / "octahedron_noisy.ply", coloured_table(noisy, nb, params, lambda, output), output);
+    tables.push_back(coloured_table(noisy, nb, params, lambda, output));
+    write_output(dir / "octahedron_noisy.ply", tables.back(), output);
   }
 
   JsonObject runs;
@@ -133,7 +151,8 @@ int run_demo(const Args& args) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     progress.finish();
     const std::string file = "octahedron_" + to_string(flow) + ".ply";
-    write_output(dir / file, coloured_table(positions, report.neighborhoods, run, report.lambda, output), output);
+    tables.push_back(coloured_table(positions, report.neighborhoods, run, report.lambda, output));
+    write_output(dir / file, tables.back(), output);
     CloudScore s = score(to_string(flow) + "tropic, " + std::to_string(report.steps) + " steps",
                          positions, clean, band, diagonal);
     s.seconds = seconds;
@@ -158,10 +177,20 @@ int run_demo(const Args& args) {
   JsonObject summary;
   summary.add("command", "demo").add("version", version()).add("threads", thread_count())
       .add("input", input).add("runs", runs);
+  // The paper's Figure 4 as one picture: noisy input, anisotropic and isotropic result.
   {
-    std::ofstream json(dir / "summary.json");
-    json << summary.str() << "\n";
+    std::vector<std::vector<Rgb>> colours;
+    std::vector<render::CloudView> views;
+    for (const auto& t : tables) colours.push_back(table_colours(t));
+    for (std::size_t i = 0; i < tables.size(); ++i) views.push_back({tables[i].positions, colours[i], {}});
+    const std::vector<std::string> labels = {"noisy input", "anisotropic", "isotropic"};
+    render::RenderParams picture;
+    picture.width = 480;
+    picture.height = 480;
+    render::write_png(dir / "octahedron.png", render::render_panels(views, labels, picture));
   }
+  io::write_file_atomically(dir / "summary.json",
+                            [&](io::FileSink& sink) { sink.write(summary.str() + "\n"); });
 
   std::printf("pointfair demo: octahedron, %zu points, noise %.2g%% of the diagonal, %d steps, %d threads\n",
               clean.size(), noise_percent, params.steps, thread_count());
@@ -172,8 +201,9 @@ int run_demo(const Args& args) {
   for (const auto& s : scores)
     std::printf("  %-26s %8.3f %11.3f %9.3f %9.2f %14.3g %12.4g\n", s.name.c_str(), 1e3 * s.rms_all,
                 1e3 * s.rms_edges, 1e3 * s.rms_faces, s.seconds, s.rate, s.moved.max);
-  std::printf("\nwrote %s/octahedron_{noisy,aniso,iso}.ply (coloured by maximal principal curvature) and %s/summary.json\n",
-              out_dir.c_str(), out_dir.c_str());
+  std::printf("\nwrote %s/octahedron_{noisy,aniso,iso}.ply (coloured by maximal principal curvature),\n"
+              "      %s/octahedron.png (the three side by side) and %s/summary.json\n",
+              out_dir.c_str(), out_dir.c_str(), out_dir.c_str());
   if (output.json) std::cout << summary.str() << std::endl;
   return 0;
 }

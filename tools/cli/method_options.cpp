@@ -76,6 +76,19 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           [&s](std::string_view v) {
             s.flow.cutoff = parse_choice<Cutoff>(v, "cutoff", {{"sharp", Cutoff::Sharp}, {"continuous", Cutoff::Continuous}});
           });
+  p.value("cutoff-origin", "point|plane",
+          "Where the cut-off's directional curvatures kappa_ij are measured from: the point "
+          "itself (the paper) or its foot on the PCA plane of its neighbourhood, so that a point's "
+          "own noise does not decide which neighbours are kept. Default point.",
+          [&s](std::string_view v) {
+            s.flow.cutoff_origin = parse_choice<CutoffOrigin>(
+                v, "cutoff-origin", {{"point", CutoffOrigin::Point}, {"plane", CutoffOrigin::Plane}});
+          });
+  p.value("normal-refits", "N",
+          "Robust normals for the anisotropic flow: N times (0..16), refit each point's plane to "
+          "the neighbours weighted by their cut-off weights and cut off again with the new normal. "
+          "0 = the paper's PCA normal. Default 0.",
+          [&s](std::string_view v) { s.flow.normal_refits = parse_int(v, "--normal-refits"); });
   p.value("lambda", "CURVATURE|auto",
           "Cut-off threshold lambda, a curvature (1/length). 'auto': --lambda-factor times the "
           "median over points of the median |kappa_ij| (see --lambda-schedule). Default auto.",
@@ -142,6 +155,14 @@ void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attribute
             o.colour_by = parse_choice<ColourBy>(
                 v, "colour-by", {{"kmax", ColourBy::MaxCurvature}, {"laplacian", ColourBy::Laplacian},
                                  {"none", ColourBy::None}});
+          });
+  p.value("colour-clip", "F",
+          "Fraction of points clipped at each end of the colour range, in [0, 0.5): 0 maps the "
+          "minimum and maximum as the paper does; the default keeps outliers from washing out "
+          "the rest. Default 0.01.",
+          [&o](std::string_view v) {
+            o.colour_clip = parse_double(v, "--colour-clip");
+            if (!(o.colour_clip >= 0.0 && o.colour_clip < 0.5)) throw UsageError("--colour-clip must be in [0, 0.5)");
           });
   if (with_attributes_flag)
     p.flag("attributes",

@@ -12,6 +12,8 @@ enum class ColourBy { MaxCurvature, Laplacian, None };
 
 struct OutputOptions {
   ColourBy colour_by = ColourBy::MaxCurvature;
+  /// Fraction of points clipped at each end of the colour range (0 = the paper's min-max).
+  double colour_clip = 0.01;
   /// Also write normal, k1, k2, d1, d2, H, |A| and feature class per point.
   bool attributes = false;
   std::string encoding = "binary";

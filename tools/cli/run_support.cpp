@@ -62,7 +62,7 @@ void add_result_columns(io::PointTable& table, const PointAttributes& a,
         output.colour_by == ColourBy::Laplacian
             ? a.laplacian_norm
             : column([&](std::size_t i) { return std::max(std::abs(a.k1[i]), std::abs(a.k2[i])); });
-    const auto colours = colour_by_scalar(scalar);
+    const auto colours = colour_by_scalar(scalar, output.colour_clip);
     const char* names[3] = {"red", "green", "blue"};
     for (int c = 0; c < 3; ++c)
       table.set(names[c], ScalarType::UInt8,
