@@ -111,7 +111,7 @@ class Run {
   void finish();
   void account(std::uint64_t working);
   std::uint64_t persistent_bytes() const {
-    return cache_bytes_ + bytes(tiles_.offsets) + bytes(tiles_.bounds) + bytes(sample_rows_) +
+    return cache_bytes_ + halo_bytes_ + bytes(halo_rows_) + bytes(tiles_.offsets) + bytes(tiles_.bounds) + bytes(sample_rows_) +
            bytes(sample_neighbors_) + bytes(sample_counts_) + bytes(sample_local_) + bytes(gather_rows_) +
            bytes(gather_positions_);
   }
@@ -150,6 +150,11 @@ class Run {
   // Neighbour lists of every tile, kept while they fit in part of the budget.
   std::vector<TileNeighbors> cache_;
   std::vector<char> cached_;
+  // Per tile: whether /run/neighbors/local holds its lists in local indices (written by this
+  // process), and its halo rows.
+  std::vector<char> local_written_;
+  std::vector<std::vector<std::uint64_t>> halo_rows_;
+  std::uint64_t halo_bytes_ = 0;
   bool caching_ = true;
   std::uint64_t cache_bytes_ = 0;
   std::uint64_t peak_ = 0;
@@ -228,6 +233,7 @@ void Run::create(const fs::path& partial) {
   f.create_group("/run/neighbors");
   f.create_dataset(layout::neighbor_rows, h5::Type::UInt32, n_, static_cast<std::uint64_t>(k()), rows);
   f.create_dataset(layout::neighbor_counts, h5::Type::UInt16, n_, 0, rows);
+  f.create_dataset(layout::neighbor_local, h5::Type::UInt32, n_, static_cast<std::uint64_t>(k()), rows);
   f.create_dataset(positions_buffer(0), h5::Type::Float64, n_, 3, rows);
   f.create_dataset(positions_buffer(1), h5::Type::Float64, n_, 3, rows);
   if (options_.attributes) {
@@ -578,7 +584,23 @@ TileNeighbors Run::tile_neighbors(std::size_t t) const {
 
 const TileNeighbors& Run::neighbors_of(std::size_t t, TileNeighbors& scratch) {
   if (caching_ && cached_[t]) return cache_[t];
+  const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
+  if (local_written_[t]) {
+    // Lists in tile-local indices, written by this process's first pass: no remapping.
+    scratch.local.stride = k();
+    scratch.local.eps = eps_;
+    scratch.local.indices.resize(rows * static_cast<std::uint64_t>(k()));
+    scratch.local.counts.resize(rows);
+    file().dataset(layout::neighbor_local).read_rows(begin, rows, scratch.local.indices.data());
+    file().dataset(layout::neighbor_counts).read_rows(begin, rows, scratch.local.counts.data());
+    scratch.halo_rows = halo_rows_[t];
+    return scratch;
+  }
   scratch = tile_neighbors(t);
+  file().dataset(layout::neighbor_local).write_rows(begin, rows, scratch.local.indices.data());
+  halo_rows_[t] = scratch.halo_rows;
+  halo_bytes_ += bytes(halo_rows_[t]);
+  local_written_[t] = 1;
   if (caching_) {
     // Keep the lists while they fit next to everything else, with room for twice the
     // largest working set seen so far.
@@ -619,6 +641,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
   if (every_step) load_sample_positions(file().dataset(source_of_step(start)));
   cache_.assign(tiles_.size(), {});
   cached_.assign(tiles_.size(), 0);
+  local_written_.assign(tiles_.size(), 0);
+  halo_rows_.assign(tiles_.size(), {});
   std::vector<Index> identity(max_tile_rows_);
   std::iota(identity.begin(), identity.end(), Index{0});
   std::vector<Vec3> local, next;
