@@ -20,7 +20,7 @@ if(POINTFAIR_FUZZ)
 endif()
 
 if(POINTFAIR_SANITIZE)
-  add_compile_options(-fsanitize=${POINTFAIR_SANITIZE} -fno-omit-frame-pointer -g)
+  add_compile_options(-fsanitize=${POINTFAIR_SANITIZE} -fno-omit-frame-pointer)
   add_link_options(-fsanitize=${POINTFAIR_SANITIZE})
   if(POINTFAIR_SANITIZE MATCHES "undefined")
     # A finding fails the test instead of printing a line and going on.

@@ -5,7 +5,8 @@ set -euo pipefail
 
 packages=(g++ cmake ninja-build pkg-config
           libeigen3-dev libnanoflann-dev zlib1g-dev libtbb-dev libomp-dev libhdf5-dev
-          libgtest-dev libgmock-dev libbenchmark-dev)
+          libgtest-dev libgmock-dev libbenchmark-dev
+          clang libclang-rt-14-dev)  # clang + libFuzzer: the fuzz smoke run of tools/test.sh
 
 missing=()
 for p in "${packages[@]}"; do

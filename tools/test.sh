@@ -1,5 +1,8 @@
 #!/usr/bin/env bash
-# Builds pointfair (Release, warnings as errors) and runs the whole test suite with ctest.
+# Builds pointfair (Release, warnings as errors) and runs the whole test suite with ctest,
+# then the hardening runs: the io, cli and hardening tests again under AddressSanitizer +
+# UndefinedBehaviorSanitizer, and a short libFuzzer run of every reader when clang is there.
+# POINTFAIR_HARDENING=0 skips the hardening runs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh
@@ -7,3 +10,34 @@ build=${POINTFAIR_BUILD_DIR:-build}
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPOINTFAIR_WERROR=ON >/dev/null
 cmake --build "$build" -j"$(nproc)"
 ctest --test-dir "$build" --output-on-failure -j"$(nproc)" --timeout 600
+
+[ "${POINTFAIR_HARDENING:-1}" = 0 ] && exit 0
+
+# ASan + UBSan (gcc): the readers, the command line (the cli and hardening tests run this
+# build's sanitized executable) and the hostile inputs.
+asan="$build-asan"
+cmake -S . -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPOINTFAIR_WERROR=ON \
+  -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_SANITIZE=address,undefined >/dev/null
+cmake --build "$asan" -j"$(nproc)" --target pointfair_io_tests pointfair_cli_tests pointfair_hardening_tests
+export ASAN_OPTIONS=abort_on_error=1:detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+ctest --test-dir "$asan" --output-on-failure -j"$(nproc)" --timeout 600 \
+  -R '^(AtomicFile|RequireDistinct|Ply|AllEncodings/PlyRoundTrip|PointFile|Xyz|CliTest|Hostile|FuzzInputs)'
+unset ASAN_OPTIONS UBSAN_OPTIONS
+
+# libFuzzer smoke run (clang): each reader's fuzzer for POINTFAIR_FUZZ_SECONDS (default 20)
+# over the committed seeds, and every committed regression input once.
+probe=$(mktemp -d)
+if command -v clang++ >/dev/null &&
+   printf 'extern "C" int LLVMFuzzerTestOneInput(const char*, unsigned long) { return 0; }\n' |
+     clang++ -x c++ -fsanitize=fuzzer - -o "$probe/fuzz_probe" 2>/dev/null; then
+  rm -rf "$probe"
+  fuzz="$build-fuzz"
+  cmake -S . -B "$fuzz" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Release \
+    -DPOINTFAIR_WERROR=ON -DPOINTFAIR_BUILD_TESTS=OFF -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_FUZZ=ON \
+    -DPOINTFAIR_FUZZ_SECONDS="${POINTFAIR_FUZZ_SECONDS:-20}" >/dev/null
+  cmake --build "$fuzz" -j"$(nproc)" --target pointfair_fuzz_ply pointfair_fuzz_xyz pointfair_fuzz_container
+  ctest --test-dir "$fuzz" --output-on-failure -j"$(nproc)" --timeout 600
+else
+  rm -rf "$probe"
+  echo "test.sh: clang++ with libFuzzer not found: fuzz smoke run skipped" >&2
+fi
