@@ -203,8 +203,13 @@ io::PointTable read_container(const fs::path& file, const ReadContainerOptions& 
   if (options.original_order) order = read_order(f, n);
   const auto* ord = options.original_order ? &order : nullptr;
   std::string positions_path = layout::positions;
-  if (options.result_positions && has_finished_run(f))
+  if (options.result_positions && f.exists(layout::run_state)) {
+    // A file of an interrupted run is never taken for a finished one.
+    if (!has_finished_run(f))
+      f.fail(layout::run_state, "the smoothing run in this file is unfinished: continue it with --resume "
+                                "(or read the input positions)");
     positions_path = f.string_attribute(layout::run, "result_positions");
+  }
   io::PointTable table;
   const h5::Dataset pos = f.dataset(positions_path);
   if (pos.width() != 3 || pos.rows() != n) f.fail(positions_path, "expected an [n, 3] array of positions");

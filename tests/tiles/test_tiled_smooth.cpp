@@ -161,6 +161,9 @@ TEST_F(TiledSmoothTest, ResumesToTheSameBits) {
   EXPECT_FALSE(std::filesystem::exists(run));
   ASSERT_TRUE(std::filesystem::exists(partial_name(run)));
   EXPECT_FALSE(has_finished_run(h5::File::open(partial_name(run), false)));
+  EXPECT_THROW(read_container(partial_name(run)), io::IoError);
+  EXPECT_EQ(read_container(partial_name(run), {.original_order = true, .result_positions = false}).positions,
+            cloud.positions);
   // Without --resume the partial run is not thrown away silently.
   EXPECT_THROW(smooth_out_of_core(path("in.h5"), run, params), io::IoError);
   // Other parameters cannot continue it.

@@ -68,7 +68,8 @@ std::uint64_t point_count(const h5::File& file);
 struct ReadContainerOptions {
   /// Rows in the input's point order (true) or in the container's tile order.
   bool original_order = true;
-  /// With a finished smoothing run in the file: its final positions instead of the input's.
+  /// With a smoothing run in the file: its final positions instead of the input's. Throws
+  /// IoError if the run is unfinished.
   bool result_positions = true;
 };
 
