@@ -12,6 +12,7 @@
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
 #include "pointfair/version.hpp"
@@ -112,7 +113,18 @@ int run_smooth_out_of_core(const Args& args) {
     throw_if_interrupted(resume_hint);
     if (phase == "step") progress.update(static_cast<long long>(done), static_cast<long long>(total));
   };
-  const tiles::OutOfCoreReport report = tiles::smooth_out_of_core(run_input, run_output, params, ooc);
+  tiles::OutOfCoreReport report;
+  try {
+    report = tiles::smooth_out_of_core(run_input, run_output, params, ooc);
+  } catch (const ParamError&) {
+    // A point-file run that cannot start (e.g. too small a budget) leaves nothing behind;
+    // a container run keeps its partial file for --resume.
+    if (!imported.empty()) {
+      remove_quietly(imported);
+      remove_quietly(tiles::partial_name(run_output));
+    }
+    throw;
+  }
   progress.finish();
 
   double seconds_write = 0.0;
