@@ -16,8 +16,9 @@ ctest --test-dir "$build" --output-on-failure -j"$(nproc)" --timeout 600
 # ASan + UBSan (gcc): the readers, the command line (the cli and hardening tests run this
 # build's sanitized executable) and the hostile inputs.
 asan="$build-asan"
-cmake -S . -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPOINTFAIR_WERROR=ON \
-  -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_SANITIZE=address,undefined >/dev/null
+# -O1: the instrumented build compiles much faster and its tests are small.
+cmake -S . -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" \
+  -DPOINTFAIR_WERROR=ON -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_SANITIZE=address,undefined >/dev/null
 cmake --build "$asan" -j"$(nproc)" --target pointfair_io_tests pointfair_cli_tests pointfair_hardening_tests
 export ASAN_OPTIONS=abort_on_error=1:detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 ctest --test-dir "$asan" --output-on-failure -j"$(nproc)" --timeout 600 \
@@ -33,6 +34,7 @@ if command -v clang++ >/dev/null &&
   rm -rf "$probe"
   fuzz="$build-fuzz"
   cmake -S . -B "$fuzz" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" \
     -DPOINTFAIR_WERROR=ON -DPOINTFAIR_BUILD_TESTS=OFF -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_FUZZ=ON \
     -DPOINTFAIR_FUZZ_SECONDS="${POINTFAIR_FUZZ_SECONDS:-20}" >/dev/null
   cmake --build "$fuzz" -j"$(nproc)" --target pointfair_fuzz_ply pointfair_fuzz_xyz pointfair_fuzz_container
