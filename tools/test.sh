@@ -16,8 +16,9 @@ ctest --test-dir "$build" --output-on-failure -j"$(nproc)" --timeout 600
 # ASan + UBSan (gcc): the readers, the command line (the cli and hardening tests run this
 # build's sanitized executable) and the hostile inputs.
 asan="$build-asan"
-# -O1: the instrumented build compiles much faster and its tests are small.
-cmake -S . -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" \
+# (-O1 would compile faster, but gcc's -Wmaybe-uninitialized differs by level: kept at the
+# level the warnings are checked at.)
+cmake -S . -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Release \
   -DPOINTFAIR_WERROR=ON -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_SANITIZE=address,undefined >/dev/null
 cmake --build "$asan" -j"$(nproc)" --target pointfair_io_tests pointfair_cli_tests pointfair_hardening_tests
 export ASAN_OPTIONS=abort_on_error=1:detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
