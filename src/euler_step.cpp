@@ -43,7 +43,12 @@ PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
   }
   Flow flow = params.flow;
   if (gated && s.feature == FeatureClass::Smooth) flow = Flow::Isotropic;
-  s.laplacian = laplacian(p, s.frame.normal, neighbors, points, {flow, params.cutoff, lambda});
+  // CutoffOrigin::Plane: the foot of p on the PCA plane, at height <n, c - p> along n.
+  const double origin_height = params.cutoff_origin == CutoffOrigin::Plane
+                                   ? s.frame.normal.dot(s.frame.centroid - p)
+                                   : 0.0;
+  s.laplacian = laplacian(p, s.frame.normal, neighbors, points,
+                          {flow, params.cutoff, lambda, origin_height});
   s.displacement = params.constrain_normal
                        ? Vec3(params.tau * s.laplacian.dot(s.frame.normal) * s.frame.normal)
                        : Vec3(params.tau * s.laplacian);
@@ -106,10 +111,15 @@ Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
   if (params.flow == Flow::Isotropic) {
     a = sum;
   } else {
+    // The origin of the cut-off's curvatures relative to p (CutoffOrigin): p itself, or its
+    // foot on the PCA plane through the barycentre p + mean.
+    const Vec3 shift = params.cutoff_origin == CutoffOrigin::Plane ? Vec3(n.dot(mean) * n)
+                                                                   : Vec3(Vec3::Zero());
     for (std::size_t j = 0; j < m; ++j) {
       // |kappa| < lambda  <=>  2 |<n, d>| < lambda |d|^2: the kept neighbours need no division.
-      const double len2 = d[j].squaredNorm();
-      const double twice_nd = 2.0 * std::abs(n.dot(d[j]));
+      const Vec3 e = d[j] - shift;
+      const double len2 = e.squaredNorm();
+      const double twice_nd = 2.0 * std::abs(n.dot(e));
       if (twice_nd < lambda * len2 || len2 == 0.0) {
         a += d[j];
       } else if (params.cutoff == Cutoff::Continuous) {

@@ -13,10 +13,11 @@ Vec3 laplacian(const Vec3& p, const Vec3& normal, std::span<const Index> neighbo
   if (params.flow == Flow::Isotropic) {
     for (const Index j : neighbors) sum += points[j] - p;
   } else {
+    const Vec3 shift = params.origin_height * normal;
     for (const Index j : neighbors) {
       const Vec3 d = points[j] - p;
-      const double g = cutoff_weight(std::abs(directional_curvature(normal, d)), params.lambda,
-                                     params.cutoff);
+      const double g = cutoff_weight(std::abs(directional_curvature(normal, d - shift)),
+                                     params.lambda, params.cutoff);
       sum += g * d;
     }
   }

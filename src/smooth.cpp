@@ -25,6 +25,8 @@ void SmoothParams::validate() const {
   require(steps >= 0, "steps must be >= 0, got " + std::to_string(steps));
   require(rebuild_interval >= 0,
           "rebuild interval must be >= 0 (0 = never), got " + std::to_string(rebuild_interval));
+  require(stop_lambda_ratio >= 0.0 && stop_lambda_ratio < 1.0,
+          "stop lambda ratio must be in [0, 1) (0 = off), got " + std::to_string(stop_lambda_ratio));
 }
 
 SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
@@ -71,6 +73,7 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
   report.seconds_neighbors += seconds_since(t0);
 
   std::vector<Vec3> next(positions.size());
+  const double lambda_input = report.lambda;
   for (int step = 0; step < params.steps; ++step) {
     if (params.rebuild_interval > 0 && step > 0 && step % params.rebuild_interval == 0) {
       t0 = std::chrono::steady_clock::now();
@@ -82,7 +85,17 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
       report.seconds_neighbors += seconds_since(t0);
     }
     t0 = std::chrono::steady_clock::now();
-    if (params.lambda_every_step && step > 0) report.lambda = measure_lambda();
+    if (params.lambda_every_step && step > 0) {
+      report.lambda = measure_lambda();
+      // The automatic lambda gauges the noise: stop once it has fallen far enough.
+      if (params.flow.flow == Flow::Anisotropic && params.flow.lambda == 0.0 &&
+          params.stop_lambda_ratio > 0.0 &&
+          report.lambda <= params.stop_lambda_ratio * lambda_input) {
+        report.stopped_early = true;
+        report.seconds_steps += seconds_since(t0);
+        break;
+      }
+    }
     const StepStats stats =
         euler_step(positions, neighborhoods, {}, params.flow, report.lambda, next);
     positions.swap(next);

@@ -28,6 +28,11 @@ struct FlowParams {
   /// Step size tau in (0, 1] (dimensionless; the paper's lambda dt |N_i|). 1 moves a point
   /// to the mean of its (kept) neighbours.
   double tau = 0.5;
+  /// Origin of the directional curvatures the cut-off reads (see CutoffOrigin): the point
+  /// itself (the paper: Point) or its foot on the PCA plane of its neighbourhood (Plane). Only
+  /// the anisotropic flow reads it. FlowParams{} is the paper's step; SmoothParams{} (the
+  /// method's defaults) uses Plane.
+  CutoffOrigin cutoff_origin = CutoffOrigin::Point;
   /// The paper's "constrain interior": move along the normal only.
   bool constrain_normal = false;
   /// With a feature mode: only feature points (edges, corners) use the cut-off; the others use

@@ -18,6 +18,14 @@ namespace pointfair {
 
 enum class Flow { Isotropic, Anisotropic };
 enum class Cutoff { Sharp, Continuous };
+/// Where the directional curvatures of the cut-off are measured from: the point itself (the
+/// paper: kappa_ij = 2 <n_i, p_j - p_i> / |p_j - p_i|^2), or its foot on the fitted tangent
+/// plane (the PCA plane through the barycentre of {p_i} ∪ N_i). Measured from the point, a
+/// point lifted off the surface by noise sees a large |kappa| toward exactly the neighbours that
+/// would pull it back, so the cut-off keeps the neighbours at its own height; from the foot, the
+/// point's own offset does not decide which neighbours are kept (the motion is unchanged:
+/// still toward p_j - p_i).
+enum class CutoffOrigin { Point, Plane };
 
 /// Cut-off weight g for a directional curvature of magnitude abs_kappa and threshold lambda
 /// (both 1/length).
@@ -33,6 +41,11 @@ struct LaplacianParams {
   Cutoff cutoff = Cutoff::Sharp;
   /// Curvature threshold of the cut-off (1/length). Ignored by the isotropic flow.
   double lambda = 1.0;
+  /// Signed distance (length) along `normal` from p to the origin of the directional
+  /// curvatures of the cut-off: 0 measures them from p (the paper); <n, c - p> with c the
+  /// barycentre measures them from p's foot on the PCA plane (CutoffOrigin::Plane). Sign-free:
+  /// flipping the normal flips this distance too.
+  double origin_height = 0.0;
 };
 
 /// A_i of point p with unit normal `normal` (sign irrelevant) and neighbours `neighbors`.

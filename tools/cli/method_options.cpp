@@ -60,7 +60,9 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           });
   p.value("eps-factor", "F", "Multiplier of the automatic eps (dimensionless). Default 2.",
           [&s](std::string_view v) { s.neighbors.eps_auto_factor = parse_double(v, "--eps-factor"); });
-  p.value("steps", "N", "Explicit Euler steps (0 reproduces the input). Default 100.",
+  p.value("steps", "N",
+          "Explicit Euler steps (0 reproduces the input); the most steps run when "
+          "--stop-lambda-ratio stops the anisotropic flow earlier. Default 100.",
           [&s](std::string_view v) { s.steps = parse_int(v, "--steps"); });
   p.value("tau", "T",
           "Step size tau in (0, 1], dimensionless: 1 moves a point to the mean of its kept "
@@ -79,16 +81,11 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
   p.value("cutoff-origin", "point|plane",
           "Where the cut-off's directional curvatures kappa_ij are measured from: the point "
           "itself (the paper) or its foot on the PCA plane of its neighbourhood, so that a point's "
-          "own noise does not decide which neighbours are kept. Default point.",
+          "own noise does not decide which neighbours are kept. Default plane.",
           [&s](std::string_view v) {
             s.flow.cutoff_origin = parse_choice<CutoffOrigin>(
                 v, "cutoff-origin", {{"point", CutoffOrigin::Point}, {"plane", CutoffOrigin::Plane}});
           });
-  p.value("normal-refits", "N",
-          "Robust normals for the anisotropic flow: N times (0..16), refit each point's plane to "
-          "the neighbours weighted by their cut-off weights and cut off again with the new normal. "
-          "0 = the paper's PCA normal. Default 0.",
-          [&s](std::string_view v) { s.flow.normal_refits = parse_int(v, "--normal-refits"); });
   p.value("lambda", "CURVATURE|auto",
           "Cut-off threshold lambda, a curvature (1/length). 'auto': --lambda-factor times the "
           "median over points of the median |kappa_ij| (see --lambda-schedule). Default auto.",
@@ -107,6 +104,12 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
             else if (v == "every-step") s.lambda_every_step = true;
             else throw UsageError("--lambda-schedule must be one of once, every-step, got '" + std::string(v) + "'");
           });
+  p.value("stop-lambda-ratio", "R",
+          "Automatic stop of the anisotropic flow, R in [0, 1) (dimensionless): with --lambda auto "
+          "and --lambda-schedule every-step, stop once lambda has fallen to R times its value on "
+          "the input (the noise is then mostly gone); --steps is the most steps run. 0 = always "
+          "run --steps (the paper). Not yet honoured by smooth-tiled. Default 0.25.",
+          [&s](std::string_view v) { s.stop_lambda_ratio = parse_double(v, "--stop-lambda-ratio"); });
   p.value("lambda-factor", "F", "Multiplier of the automatic lambda (dimensionless). Default 1.",
           [&s](std::string_view v) { s.flow.lambda_auto_factor = parse_double(v, "--lambda-factor"); });
   p.flag("constrain-normal",
