@@ -52,7 +52,9 @@ std::string parameters_key(const SmoothParams& p) {
     << " features=" << static_cast<int>(p.flow.features.mode) << " quotient=" << p.flow.features.quotient
     << " feature_threshold=" << p.flow.features.threshold
     << " weights=" << static_cast<int>(p.flow.weingarten.weights)
-    << " density_floor=" << p.flow.weingarten.density_floor;
+    << " density_floor=" << p.flow.weingarten.density_floor
+    << " cutoff_origin=" << static_cast<int>(p.flow.cutoff_origin)
+    << " stop_lambda_ratio=" << p.stop_lambda_ratio;
   return s.str();
 }
 
@@ -122,6 +124,12 @@ class Run {
   const h5::File& file() const { return *file_; }
   int k() const { return params_.neighbors.k; }
   bool auto_lambda_on() const { return params_.flow.lambda == 0.0; }
+  // SmoothParams::stop_lambda_ratio applies (as in smooth(): anisotropic, automatic lambda
+  // measured every step).
+  bool stops_automatically() const {
+    return params_.flow.flow == Flow::Anisotropic && auto_lambda_on() && params_.lambda_every_step &&
+           params_.stop_lambda_ratio > 0.0;
+  }
   std::string source_of_step(int step) const {
     return step == 0 ? std::string(layout::positions) : positions_buffer(step % 2);
   }
@@ -132,6 +140,10 @@ class Run {
   std::optional<h5::File> file_;
   TileTable tiles_;
   std::uint64_t n_ = 0;
+  // Steps the run ends with: params_.steps, or fewer when the automatic stop ended it.
+  int final_steps_ = -1;
+  // The lambda that stopped the run (measured on its final positions), as smooth() reports it.
+  double stop_lambda_ = 0.0;
   std::vector<std::int64_t> state_ = std::vector<std::int64_t>(kStateSize, 0);
   double eps_ = 0.0;
   Box global_bounds_{};
@@ -649,9 +661,24 @@ bool Run::run_steps(OutOfCoreReport& report) {
   TileNeighbors scratch;
   h5::Dataset log = file().dataset(layout::run_step_log);
   int committed_here = 0;
+  // The automatic stop compares each step's lambda with the input's (logged as step 0's).
+  double lambda_input = 0.0;
+  if (stops_automatically() && start > 0) {
+    double entry[2];
+    log.read_rows(0, 1, entry);
+    lambda_input = entry[0];
+  }
   for (int step = start; step < params_.steps; ++step) {
     const auto t0 = Clock::now();
     if (every_step) lambda = sample_lambda();
+    if (stops_automatically()) {
+      if (step == 0) lambda_input = lambda;
+      if (step > 0 && lambda <= params_.stop_lambda_ratio * lambda_input) {
+        final_steps_ = step;
+        stop_lambda_ = lambda;
+        return true;
+      }
+    }
     const h5::Dataset source = file().dataset(source_of_step(step));
     h5::Dataset target = file().dataset(positions_buffer((step + 1) % 2));
     std::size_t degenerate = 0;
@@ -685,13 +712,14 @@ bool Run::run_steps(OutOfCoreReport& report) {
     if (options_.stop_after_steps >= 0 && ++committed_here >= options_.stop_after_steps && step + 1 < params_.steps)
       return false;
   }
+  final_steps_ = params_.steps;
   return true;
 }
 
 // ---- attributes and the end ---------------------------------------------------------------------
 
 void Run::write_attributes(double lambda) {
-  const std::string source_path = source_of_step(params_.steps);
+  const std::string source_path = source_of_step(final_steps_);
   const h5::Dataset source = file().dataset(source_path);
   // compute_attributes orients normals away from the centre of the bounding box.
   Eigen::AlignedBox3d box;
@@ -759,7 +787,7 @@ void Run::write_attributes(double lambda) {
 }
 
 void Run::finish() {
-  file().set_attribute(layout::run, "result_positions", source_of_step(params_.steps));
+  file().set_attribute(layout::run, "result_positions", source_of_step(final_steps_));
   file().set_attribute(layout::run, "eps", eps_);
   state_[kFinished] = 1;
   commit_state();
@@ -796,10 +824,12 @@ OutOfCoreReport Run::run() {
   }
   // The threshold of the last step (or of the input when there are no steps).
   double lambda = params_.flow.lambda;
-  if (params_.steps > 0) {
+  report.steps = final_steps_;
+  if (final_steps_ > 0) {
     double entry[2];
-    file().dataset(layout::run_step_log).read_rows(static_cast<std::uint64_t>(params_.steps - 1), 1, entry);
-    lambda = entry[0];
+    file().dataset(layout::run_step_log).read_rows(static_cast<std::uint64_t>(final_steps_ - 1), 1, entry);
+    // Stopped early: smooth() reports the threshold measured on the final positions.
+    lambda = final_steps_ < params_.steps ? stop_lambda_ : entry[0];
     report.degenerate = static_cast<std::size_t>(entry[1]);
   } else if (auto_lambda_on()) {
     load_sample_positions(file().dataset(layout::positions));

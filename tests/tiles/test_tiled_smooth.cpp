@@ -185,6 +185,33 @@ TEST_F(TiledSmoothTest, ResumesToTheSameBits) {
   EXPECT_EQ(third.lambda, ref.report.lambda);
 }
 
+// With the default automatic stop, the out-of-core run stops at the same step as smooth(),
+// also when it is interrupted and resumed on either side of that step.
+TEST_F(TiledSmoothTest, AutomaticStopMatchesInCore) {
+  const io::PointTable cloud = test::noisy_cube(4000, 21);
+  SmoothParams params;  // defaults: stop when lambda falls to stop_lambda_ratio of the input's
+  params.steps = 60;
+  const InCore ref = run_in_core(cloud, params);
+  ASSERT_TRUE(ref.report.stopped_early);
+  ASSERT_GT(ref.report.steps, 2);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 700}));
+  const OutOfCoreReport whole = smooth_out_of_core(path("in.h5"), path("run.h5"), params);
+  EXPECT_TRUE(whole.finished);
+  EXPECT_EQ(whole.steps, ref.report.steps);
+  EXPECT_EQ(whole.lambda, ref.report.lambda);
+  expect_identical(path("run.h5"), ref);
+  // Interrupted two steps before the stop, then resumed.
+  OutOfCoreOptions stop;
+  stop.stop_after_steps = ref.report.steps - 2;
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, stop).finished);
+  OutOfCoreOptions resume;
+  resume.resume = true;
+  const OutOfCoreReport resumed = smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, resume);
+  EXPECT_TRUE(resumed.finished);
+  EXPECT_EQ(resumed.steps, ref.report.steps);
+  expect_identical(path("resumed.h5"), ref);
+}
+
 TEST_F(TiledSmoothTest, MemoryAccountingStaysInTheBudget) {
   const io::PointTable cloud = test::noisy_cube(20000, 16);
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 2000}));
