@@ -95,7 +95,8 @@ int run_demo(const Args& args) {
       "The paper's octahedron experiment (Figure 4) on a built-in input: a regular 4-1 "
       "subdivision of the octahedron (level 6: 16,386 points on 32,768 triangles), Gaussian "
       "noise along the normal and both tangents with sigma = 1.5% of the bounding-box diagonal, "
-      "then the anisotropic flow and, for comparison, the isotropic flow with the same steps. "
+      "then the anisotropic flow (which may stop early: see --stop-lambda-ratio) and, for "
+      "comparison, the isotropic flow for all --steps. "
       "Writes PLY files coloured by maximal principal curvature and summary.json into the "
       "output folder, and prints a summary.");
   parser.value("out", "DIR", "Output folder (created if missing). Default ./out.",
