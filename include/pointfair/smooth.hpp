@@ -42,7 +42,7 @@ struct SmoothParams {
   /// Ignored by the isotropic flow and with a fixed lambda or lambda measured once. 0.25
   /// measured best with CutoffOrigin::Plane (fandisk 100K at 0.1% and 0.5% noise stops after
   /// 5 and 16 steps, the octahedron at 1.5% after 31; 0.2 and 0.3 trade RMS against edges).
-  /// Not yet honoured by the out-of-core (tiled) smoother, which runs `steps`.
+  /// The out-of-core smoother stops at the same step.
   double stop_lambda_ratio = 0.25;
 
   void validate() const;
