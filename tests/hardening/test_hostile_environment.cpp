@@ -238,8 +238,9 @@ TEST_F(HostileEnvironment, SigintAndSigtermStopASmoothRunCleanly) {
   const std::string before = slurp(in);
   for (const int sig : {SIGINT, SIGTERM}) {
     SCOPED_TRACE(sig);
-    // A million steps: the run is always interrupted, whenever the signal arrives.
-    const Child c = start({"smooth", in.string(), (dir_ / "out.ply").string(), "--steps", "1000000"});
+    // A million steps without the automatic stop: the run is always interrupted.
+    const Child c = start({"smooth", in.string(), (dir_ / "out.ply").string(), "--steps", "1000000",
+                           "--stop-lambda-ratio", "0"});
     ASSERT_TRUE(wait_for_handlers(c.pid));
     kill(c.pid, sig);
     const Result r = wait_for(c);
@@ -268,7 +269,8 @@ TEST_F(HostileEnvironment, SignalDuringCurvatureOrDemoLeavesOnlyCompleteFiles) {
   }
   EXPECT_EQ(slurp(in), before);
 
-  const Child d = start({"demo", "--out", (dir_ / "demo").string(), "--level", "5", "--steps", "1000000"});
+  const Child d = start({"demo", "--out", (dir_ / "demo").string(), "--level", "5", "--steps", "1000000",
+                         "--stop-lambda-ratio", "0"});
   ASSERT_TRUE(wait_for_handlers(d.pid));
   kill(d.pid, SIGTERM);
   const Result rd = wait_for(d);
