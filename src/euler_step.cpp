@@ -175,19 +175,26 @@ double auto_lambda(std::span<const Vec3> points, const Neighborhoods& neighborho
   const std::size_t samples = (n + stride - 1) / stride;
   std::vector<double> medians(samples, -1.0);
   parallel_for(samples, [&](std::size_t begin, std::size_t end) {
-    std::vector<double> kappas;
     for (std::size_t s = begin; s < end; ++s) {
       const std::size_t i = row_of.empty() ? s * stride : row_of[s * stride];
-      const auto nb = neighborhoods.of(i);
-      const Frame f = compute_frame(points[i], nb, points);
-      if (!f.valid) continue;
-      kappas.clear();
-      for (const Index j : nb) kappas.push_back(std::abs(directional_curvature(f.normal, points[j] - points[i])));
-      auto mid = kappas.begin() + static_cast<std::ptrdiff_t>(kappas.size() / 2);
-      std::nth_element(kappas.begin(), mid, kappas.end());
-      medians[s] = *mid;
+      medians[s] = median_abs_curvature(points[i], neighborhoods.of(i), points);
     }
   }, 256);
+  return lambda_from_medians(std::move(medians), factor);
+}
+
+double median_abs_curvature(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points) {
+  const Frame f = compute_frame(p, neighbors, points);
+  if (!f.valid) return -1.0;
+  std::vector<double> kappas(neighbors.size());
+  for (std::size_t j = 0; j < neighbors.size(); ++j)
+    kappas[j] = std::abs(directional_curvature(f.normal, points[neighbors[j]] - p));
+  const auto mid = kappas.begin() + static_cast<std::ptrdiff_t>(kappas.size() / 2);
+  std::nth_element(kappas.begin(), mid, kappas.end());
+  return *mid;
+}
+
+double lambda_from_medians(std::vector<double> medians, double factor) {
   std::erase_if(medians, [](double m) { return m < 0.0; });
   if (medians.empty()) return 1.0;
   auto mid = medians.begin() + static_cast<std::ptrdiff_t>(medians.size() / 2);

@@ -7,6 +7,7 @@
 //   p_i <- p_i + tau <A_i, n_i> n_i            ("constrain interior": normal motion only)
 #include <cstddef>
 #include <span>
+#include <vector>
 
 #include "pointfair/curvature.hpp"
 #include "pointfair/features.hpp"
@@ -80,6 +81,13 @@ StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighbo
 /// original point i is stored (its row and position); empty means i itself.
 double auto_lambda(std::span<const Vec3> points, const Neighborhoods& neighborhoods, double factor,
                    std::span<const Index> row_of = {});
+
+/// The automatic lambda's per-point term: the median |kappa_ij| of point p with its
+/// neighbours, or -1 when its frame is degenerate.
+double median_abs_curvature(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points);
+/// The automatic lambda from per-point medians (entries < 0 are skipped): factor times their
+/// median; 1 for no usable entry; the largest double for a flat cloud (median 0).
+double lambda_from_medians(std::vector<double> medians, double factor);
 
 /// The threshold params ask for: params.lambda, or auto_lambda.
 double resolve_lambda(std::span<const Vec3> points, const Neighborhoods& neighborhoods,

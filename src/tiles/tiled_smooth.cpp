@@ -532,33 +532,21 @@ void Run::load_sample_positions(const h5::Dataset& positions) {
 }
 
 double Run::sample_lambda() const {
-  // Mirrors auto_lambda (euler_step.cpp) on the gathered sample: the same points, frames,
-  // |kappa| medians and median of medians; tests check that both agree to the bit.
+  // auto_lambda (euler_step.cpp) on the gathered sample: the same points and the same
+  // per-point and global medians; tests check that both agree to the bit.
   if (n_ == 0) return 1.0;
   const std::size_t samples = sample_rows_.size();
   const std::size_t kk = static_cast<std::size_t>(k());
   const std::span<const Vec3> points = gather_positions_;
   std::vector<double> medians(samples, -1.0);
   parallel_for(samples, [&](std::size_t begin, std::size_t end) {
-    std::vector<double> kappas;
     for (std::size_t s = begin; s < end; ++s) {
       const Index i = sample_local_[s];
       const std::span<const Index> nb(sample_neighbors_.data() + s * kk, sample_counts_[s]);
-      const Frame f = compute_frame(points[i], nb, points);
-      if (!f.valid) continue;
-      kappas.clear();
-      for (const Index j : nb) kappas.push_back(std::abs(directional_curvature(f.normal, points[j] - points[i])));
-      auto mid = kappas.begin() + static_cast<std::ptrdiff_t>(kappas.size() / 2);
-      std::nth_element(kappas.begin(), mid, kappas.end());
-      medians[s] = *mid;
+      medians[s] = median_abs_curvature(points[i], nb, points);
     }
   }, 256);
-  std::erase_if(medians, [](double m) { return m < 0.0; });
-  if (medians.empty()) return 1.0;
-  auto mid = medians.begin() + static_cast<std::ptrdiff_t>(medians.size() / 2);
-  std::nth_element(medians.begin(), mid, medians.end());
-  const double m = *mid;
-  return m > 0.0 ? params_.flow.lambda_auto_factor * m : std::numeric_limits<double>::max();
+  return lambda_from_medians(std::move(medians), params_.flow.lambda_auto_factor);
 }
 
 // ---- steps ------------------------------------------------------------------------------------
