@@ -1,0 +1,59 @@
+#pragma once
+// ASPRS LAS point files, versions 1.0 to 1.4, point data record formats 0 to 10
+// (uncompressed only: LAZ is refused with a hint to decompress it first).
+#include <filesystem>
+
+#include "pointfair/io/point_table.hpp"
+
+namespace pointfair::io {
+
+/// Reads a LAS file. Positions are offset + scale * (the stored int32 X, Y, Z); the scale and
+/// offset are kept in table.quantization, and the version, point format, header ids, Extra
+/// Bytes descriptors and all other (E)VLRs in table.las, so write_las reproduces the file's
+/// integers and fields exactly.
+///
+/// Every standard field of the point format becomes an attribute, in record order, with the
+/// type of the specification (names and types in README "Formats"): intensity, return_number,
+/// number_of_returns, scan_direction_flag, edge_of_flight_line, classification, synthetic,
+/// key_point, withheld, overlap (formats 6-10), scanner_channel (6-10), scan_angle_rank
+/// (0-5: int8 degrees, as stored) or scan_angle (6-10: int16 in units of 0.006 degrees, as
+/// stored), user_data, point_source_id, gps_time, red, green, blue, nir, wave_packet_index,
+/// wave_data_offset (uint64 held as a double), wave_packet_size, return_point_location, x_t,
+/// y_t, z_t. Extra bytes become attributes after them: one per value described by the Extra
+/// Bytes VLR (stored values: the descriptor's scale and offset are not applied; arrays give
+/// name_0, name_1, ...; names are reduced to letters, digits and '_' and made unique), then
+/// one uint8 "extra_byte_<k>" per undescribed byte.
+///
+/// Throws IoError "<file>: <problem>" for a file that is not LAS, is LAZ or has the
+/// compression bit set, is truncated, has inconsistent sizes or offsets (checked against the
+/// file size before anything is allocated), an unknown version or point format, a record
+/// length too small for its format, an unusable scale or offset, or a non-finite position.
+PointTable read_las(const std::filesystem::path& file, const ReadOptions& options = {});
+
+/// Writes `table` atomically (see write_file_atomically) as a LAS file.
+///
+/// Version and point format: those of table.las when present (a table read from LAS);
+/// otherwise LAS 1.4 with the smallest of formats 6-10 that holds the table's standard
+/// attributes: 6, 7 with red/green/blue, 8 with nir, 9 with wave packet fields, 10 with wave
+/// packets and colour (1.4 formats are the only ones with 16 returns, the overlap flag and
+/// 256 classes, and every current reader handles them).
+///
+/// Positions: quantized with table.quantization when present; otherwise offset = the
+/// bounding box minimum rounded down to a whole unit, and scale = the finest power of ten,
+/// down to 1e-9, at which the extent above the offset fits in int32 (1e-4 or finer for
+/// extents up to 214,748 units: sub-0.1 mm for metres).
+///
+/// Attributes named like a standard field of the format fill that field (converted to the
+/// field's type: rounded, and saturated to its range or bit width; uint8 red, green, blue and
+/// nir are scaled by 257 to the 16 bits of LAS colours); a field without an
+/// attribute is 0 (return_number and number_of_returns: 1). scan_angle_rank and scan_angle
+/// convert into each other when only the other one exists. Every other attribute goes to
+/// the extra bytes, described by an Extra Bytes VLR (the source's descriptors are reused
+/// when the extra attributes are still exactly the ones read).
+///
+/// Throws IoError "<file>: <problem>" for a non-finite position, a position outside the
+/// int32 range of the quantization, an invalid table.las (version/format), an attribute
+/// name too long for an extra bytes descriptor (32 characters), or a write failure.
+void write_las(const std::filesystem::path& file, const PointTable& table);
+
+}  // namespace pointfair::io

@@ -1,0 +1,267 @@
+// LAS reader: public header, VLRs, point records (in blocks), EVLRs, each checked against
+// the file size before it is read or allocated.
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "file_reader.hpp"
+#include "io_error.hpp"
+#include "las_format.hpp"
+#include "pointfair/io/las.hpp"
+#include "scalar_codec.hpp"
+#include "table_checks.hpp"
+
+namespace pointfair::io {
+
+namespace fs = std::filesystem;
+using namespace detail;
+
+namespace {
+
+constexpr std::size_t kBlockBytes = std::size_t{4} << 20;
+// Doubles hold every integer up to 2^53 exactly; 64-bit fields beyond it are rounded.
+constexpr double kExactIntegerLimit = 9007199254740992.0;
+
+std::string read_exact(FileReader& reader, std::uint64_t size, std::string_view what) {
+  if (size > reader.remaining()) {
+    fail(reader.path(), "truncated file: " + std::string(what) + " needs " + std::to_string(size) +
+                            " bytes, " + std::to_string(reader.remaining()) + " remain");
+  }
+  std::string bytes(static_cast<std::size_t>(size), '\0');
+  reader.read(bytes.data(), bytes.size());
+  return bytes;
+}
+
+[[noreturn]] void fail_laz(const fs::path& file) {
+  fail(file, "LAZ (compressed LAS) is not supported; decompress it first, e.g. with "
+             "'laszip -i in.laz -o out.las' or 'pdal translate in.laz out.las'");
+}
+
+std::uint64_t position_of(const FileReader& reader) { return reader.size() - reader.remaining(); }
+
+void skip_to(FileReader& reader, std::uint64_t target, std::string_view what) {
+  const std::uint64_t here = position_of(reader);
+  if (target < here) fail(reader.path(), std::string(what) + " starts at byte " + std::to_string(target) +
+                                             ", inside the data before it (byte " + std::to_string(here) + ")");
+  if (target > reader.size()) fail(reader.path(), std::string(what) + " starts at byte " + std::to_string(target) +
+                                                      ", beyond the end of the file (" +
+                                                      std::to_string(reader.size()) + " bytes)");
+  reader.skip(target - here);
+}
+
+LasHeader read_header(FileReader& reader) {
+  const fs::path& file = reader.path();
+  std::string bytes = read_exact(reader, std::min<std::uint64_t>(reader.size(), las_header_size(0)), "the header");
+  if (bytes.size() >= 26 && bytes.compare(0, 4, "LASF") == 0) {
+    const auto minor = static_cast<unsigned char>(bytes[25]);
+    const std::size_t needed = las_header_size(minor);
+    if (minor <= 4 && needed > bytes.size()) {
+      bytes += read_exact(reader, std::min<std::uint64_t>(reader.remaining(), needed - bytes.size()), "the header");
+    }
+  }
+  LasHeader h = parse_las_header(file, bytes);
+  skip_to(reader, h.header_size, "the end of the header");
+  if (position_of(reader) != h.header_size) fail(file, "truncated header: the file ends inside it");
+
+  if ((h.format_byte & 0xc0) != 0) fail_laz(file);
+  if (h.point_format > kMaxPointFormat) {
+    fail(file, "unknown point data format " + std::to_string(h.point_format) + " (expected 0 to 10)");
+  }
+  if (h.record_length < point_record_size(h.point_format)) {
+    fail(file, "point record length " + std::to_string(h.record_length) + " is smaller than the " +
+                   std::to_string(point_record_size(h.point_format)) + " bytes of point format " +
+                   std::to_string(h.point_format));
+  }
+  if (h.point_data_offset < h.header_size) {
+    fail(file, "offset to point data " + std::to_string(h.point_data_offset) +
+                   " lies inside the header (" + std::to_string(h.header_size) + " bytes)");
+  }
+  if (h.point_data_offset > reader.size()) {
+    fail(file, "offset to point data " + std::to_string(h.point_data_offset) +
+                   " lies beyond the end of the file (" + std::to_string(reader.size()) + " bytes)");
+  }
+  const char* axes = "xyz";
+  for (std::size_t a = 0; a < 3; ++a) {
+    if (!std::isfinite(h.scale[a]) || h.scale[a] == 0 || !std::isfinite(h.offset[a])) {
+      fail(file, std::string(1, axes[a]) + " scale factor " + std::to_string(h.scale[a]) + " or offset " +
+                     std::to_string(h.offset[a]) + " is not usable (scales must be finite and non-zero)");
+    }
+  }
+  return h;
+}
+
+void read_vlrs(FileReader& reader, const LasHeader& h, LasMetadata& metadata) {
+  const fs::path& file = reader.path();
+  const std::uint64_t space = h.point_data_offset - h.header_size;
+  if (std::uint64_t{h.vlr_count} * kVlrHeaderSize > space) {
+    fail(file, std::to_string(h.vlr_count) + " VLRs do not fit in the " + std::to_string(space) +
+                   " bytes between the header and the point data");
+  }
+  bool have_extra_bytes = false;
+  for (std::uint32_t v = 0; v < h.vlr_count; ++v) {
+    const std::string name = "VLR " + std::to_string(v);
+    const std::string head = read_exact(reader, kVlrHeaderSize, name);
+    const auto length = static_cast<std::uint16_t>(load_le(LasStorage::U16, head.data() + 20));
+    if (position_of(reader) + length > h.point_data_offset) {
+      fail(file, name + " (" + std::to_string(length) + " bytes) runs past the start of the point data");
+    }
+    LasRecord record;
+    record.user_id = fixed_text(std::string_view(head).substr(2, 16));
+    record.record_id = static_cast<std::uint16_t>(load_le(LasStorage::U16, head.data() + 18));
+    record.description = fixed_text(std::string_view(head).substr(22, 32));
+    record.data = read_exact(reader, length, name);
+    if (record.user_id == "laszip encoded") fail_laz(file);
+    if (record.user_id == kLasSpecUserId && record.record_id == kExtraBytesRecordId) {
+      if (have_extra_bytes) fail(file, "more than one Extra Bytes VLR");
+      have_extra_bytes = true;
+      metadata.extra_bytes_descriptors = std::move(record.data);
+    } else {
+      metadata.records.push_back(std::move(record));
+    }
+  }
+}
+
+void read_evlrs(FileReader& reader, const LasHeader& h, LasMetadata& metadata) {
+  const fs::path& file = reader.path();
+  if (h.version_minor < 4 || h.evlr_count == 0) return;
+  skip_to(reader, h.evlr_start, "the first EVLR");
+  if (std::uint64_t{h.evlr_count} * kEvlrHeaderSize > reader.remaining()) {
+    fail(file, std::to_string(h.evlr_count) + " EVLRs do not fit in the " + std::to_string(reader.remaining()) +
+                   " bytes after their start");
+  }
+  for (std::uint32_t v = 0; v < h.evlr_count; ++v) {
+    const std::string name = "EVLR " + std::to_string(v);
+    const std::string head = read_exact(reader, kEvlrHeaderSize, name);
+    const auto length = load_scalar<std::uint64_t, needs_swap(false)>(head.data() + 20);
+    LasRecord record;
+    record.user_id = fixed_text(std::string_view(head).substr(2, 16));
+    record.record_id = static_cast<std::uint16_t>(load_le(LasStorage::U16, head.data() + 18));
+    record.description = fixed_text(std::string_view(head).substr(28, 32));
+    record.data = read_exact(reader, length, name);
+    record.extended = true;
+    metadata.records.push_back(std::move(record));
+  }
+}
+
+// Where a value of a record goes: a standard field or an extra column.
+struct Column {
+  LasStorage storage;
+  std::size_t offset;  // in the record
+  unsigned shift = 0;
+  unsigned bits = 0;
+  std::size_t attribute = 0;
+  bool wide = false;  // a 64-bit integer, exact only up to 2^53
+};
+
+void read_points_into(FileReader& reader, const LasHeader& h, const std::vector<Column>& columns,
+                      const ReadOptions& options, PointTable& table) {
+  const fs::path& file = reader.path();
+  const std::size_t record = h.record_length;
+  const std::uint64_t available = reader.remaining() / record;
+  if (h.point_count > available) {
+    fail(file, "header declares " + std::to_string(h.point_count) + " points but the file holds only " +
+                   std::to_string(available) + " records of " + std::to_string(record) + " bytes");
+  }
+  if (h.point_count > std::numeric_limits<Index>::max()) {
+    fail(file, std::to_string(h.point_count) + " points exceed the limit of " +
+                   std::to_string(std::numeric_limits<Index>::max()) + " points per file");
+  }
+  const auto count = static_cast<std::size_t>(h.point_count);
+  table.positions.resize(count);
+  for (Attribute& attribute : table.attributes) attribute.values.resize(count);
+  std::vector<bool> rounded(columns.size(), false);
+
+  const std::size_t block_records = std::max<std::size_t>(1, kBlockBytes / record);
+  std::vector<char> block(std::min(count, block_records) * record);
+  for (std::size_t first = 0; first < count; first += block_records) {
+    const std::size_t records = std::min(block_records, count - first);
+    if (reader.read(block.data(), records * record) != records * record) {
+      fail(file, "truncated point data");
+    }
+    for (std::size_t r = 0; r < records; ++r) {
+      const char* bytes = block.data() + r * record;
+      Vec3& p = table.positions[first + r];
+      for (int a = 0; a < 3; ++a) {
+        const double stored = load_le(LasStorage::I32, bytes + 4 * a);
+        p[a] = h.offset[a] + h.scale[a] * stored;
+      }
+    }
+    check_finite(file, table.positions, first, first + records, "point");
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      const Column& column = columns[c];
+      double* out = table.attributes[column.attribute].values.data() + first;
+      const char* bytes = block.data() + column.offset;
+      if (column.bits > 0) {
+        const unsigned mask = (1u << column.bits) - 1;
+        for (std::size_t r = 0; r < records; ++r) {
+          const auto byte = static_cast<unsigned char>(bytes[r * record]);
+          out[r] = static_cast<double>((byte >> column.shift) & mask);
+        }
+      } else {
+        for (std::size_t r = 0; r < records; ++r) out[r] = load_le(column.storage, bytes + r * record);
+      }
+      if (column.wide && !rounded[c]) {
+        for (std::size_t r = 0; r < records; ++r) {
+          if (std::abs(out[r]) > kExactIntegerLimit) rounded[c] = true;
+        }
+        if (rounded[c]) {
+          warn(options, file, "attribute '" + table.attributes[column.attribute].name +
+                                  "' has 64-bit values beyond 2^53 that are rounded");
+        }
+      }
+    }
+  }
+}
+
+bool has_laz_extension(const fs::path& file) {
+  std::string extension = file.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension == ".laz";
+}
+
+}  // namespace
+
+PointTable read_las(const fs::path& file, const ReadOptions& options) {
+  if (has_laz_extension(file)) fail_laz(file);
+  FileReader reader(file);
+  const LasHeader h = read_header(reader);
+
+  LasMetadata metadata;
+  metadata.version_minor = h.version_minor;
+  metadata.point_format = h.point_format;
+  metadata.file_source_id = h.file_source_id;
+  metadata.global_encoding = h.global_encoding;
+  metadata.project_guid = h.project_guid;
+  metadata.system_identifier = h.system_identifier;
+  read_vlrs(reader, h, metadata);
+  skip_to(reader, h.point_data_offset, "the point data");
+
+  PointTable table;
+  table.position_type = ScalarType::Float64;
+  table.quantization = PositionQuantization{Vec3(h.scale[0], h.scale[1], h.scale[2]),
+                                            Vec3(h.offset[0], h.offset[1], h.offset[2])};
+  std::vector<Column> columns;
+  for (const LasField& field : las_fields(h.point_format)) {
+    columns.push_back({field.storage, field.offset, field.shift, field.bits, table.attributes.size(),
+                       field.storage == LasStorage::U64 || field.storage == LasStorage::I64});
+    table.attributes.push_back(Attribute{std::string(field.name), field.type, {}});
+  }
+  const std::size_t base = point_record_size(h.point_format);
+  for (const ExtraColumn& extra : extra_columns(file, h.point_format, metadata.extra_bytes_descriptors, h.record_length - base)) {
+    columns.push_back({extra.storage, base + extra.offset, 0, 0, table.attributes.size(),
+                       extra.storage == LasStorage::U64 || extra.storage == LasStorage::I64});
+    table.attributes.push_back(Attribute{extra.name, extra.type, {}});
+  }
+  read_points_into(reader, h, columns, options, table);
+  if ((h.global_encoding & 2) != 0) {
+    warn(options, file, "waveform data packets stored inside the file are not kept");
+  }
+  read_evlrs(reader, h, metadata);
+  table.las = std::move(metadata);
+  return table;
+}
+
+}  // namespace pointfair::io

@@ -1,0 +1,304 @@
+// LAS writer: plans the whole file (format, quantization, fields, extra bytes, records)
+// and checks it before the output is created, then writes header, VLRs, points and EVLRs.
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "io_error.hpp"
+#include "las_format.hpp"
+#include "pointfair/io/atomic_file.hpp"
+#include "pointfair/io/las.hpp"
+#include "table_checks.hpp"
+
+namespace pointfair::io {
+
+namespace fs = std::filesystem;
+using namespace detail;
+
+namespace {
+
+constexpr std::size_t kBlockBytes = std::size_t{4} << 20;
+constexpr double kInt32Max = 2147483647.0;
+// Scan angle units of formats 6-10, in degrees.
+constexpr double kScanAngleUnit = 0.006;
+
+// One value written per record: a standard field or an extra column.
+struct Column {
+  const Attribute* source = nullptr;  // nullptr: `fallback`
+  double factor = 1;                  // applied to the source (scan angle conversion)
+  double fallback = 0;
+  LasStorage storage = LasStorage::U8;
+  std::size_t offset = 0;
+  unsigned shift = 0;
+  unsigned bits = 0;
+};
+
+struct Plan {
+  LasHeader header;
+  std::vector<Column> columns;
+  std::vector<LasRecord> vlrs, evlrs;
+};
+
+int choose_format(const PointTable& table) {
+  auto any = [&](std::initializer_list<std::string_view> names) {
+    return std::any_of(names.begin(), names.end(), [&](std::string_view n) { return table.find(n) != nullptr; });
+  };
+  const bool rgb = any({"red", "green", "blue"});
+  const bool nir = any({"nir"});
+  const bool wave = any({"wave_packet_index", "wave_data_offset", "wave_packet_size", "return_point_location",
+                         "x_t", "y_t", "z_t"});
+  if (wave) return rgb || nir ? 10 : 9;
+  if (nir) return 8;
+  return rgb ? 7 : 6;
+}
+
+// Offset: the bounding box minimum rounded down; scale: the finest power of ten (>= 1e-9)
+// at which the extent above the offset fits in int32.
+PositionQuantization choose_quantization(const std::vector<Vec3>& positions) {
+  PositionQuantization q;
+  if (positions.empty()) return q;
+  Vec3 lo = positions[0], hi = positions[0];
+  for (const Vec3& p : positions) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  for (int a = 0; a < 3; ++a) {
+    q.offset[a] = std::floor(lo[a]);
+    const double extent = hi[a] - q.offset[a];
+    int exponent = -9;
+    // 0.99: leaves room for the rounding of (x - offset) / scale.
+    while (extent / std::pow(10.0, exponent) > 0.99 * kInt32Max) ++exponent;
+    q.scale[a] = std::pow(10.0, exponent);
+  }
+  return q;
+}
+
+std::uint16_t today_day_of_year(std::uint16_t& year) {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  year = static_cast<std::uint16_t>(utc.tm_year + 1900);
+  return static_cast<std::uint16_t>(utc.tm_yday + 1);
+}
+
+// The extra attributes in order; reuses the source's descriptors when they still match.
+void plan_extra_bytes(const fs::path& file, const LasMetadata* source, const std::vector<const Attribute*>& extras,
+                      Plan& plan, std::string& descriptors) {
+  const std::size_t base = point_record_size(plan.header.point_format);
+  if (source != nullptr) {
+    const std::size_t described = described_extra_size(file, source->extra_bytes_descriptors);
+    const std::vector<ExtraColumn> described_columns = extra_columns(file, plan.header.point_format, source->extra_bytes_descriptors, described);
+    if (extras.size() >= described_columns.size()) {
+      const std::size_t size = described + (extras.size() - described_columns.size());
+      const std::vector<ExtraColumn> kept = extra_columns(file, plan.header.point_format, source->extra_bytes_descriptors, size);
+      bool same = kept.size() == extras.size();
+      for (std::size_t i = 0; same && i < kept.size(); ++i) {
+        same = kept[i].name == extras[i]->name && kept[i].type == extras[i]->type;
+      }
+      if (same) {
+        for (std::size_t i = 0; i < kept.size(); ++i) {
+          plan.columns.push_back({extras[i], 1, 0, kept[i].storage, base + kept[i].offset});
+        }
+        descriptors = source->extra_bytes_descriptors;
+        if (base + size > 65535) fail(file, "point records would exceed 65535 bytes");
+        plan.header.record_length = static_cast<std::uint16_t>(base + size);
+        return;
+      }
+    }
+  }
+  std::size_t offset = base;
+  for (const Attribute* extra : extras) {
+    if (extra->name.size() > 32) {
+      fail(file, "attribute name '" + extra->name + "' is longer than the 32 characters of a LAS extra bytes name");
+    }
+    const LasStorage storage = storage_of(extra->type);
+    descriptors += extra_descriptor(extra->name, extra->type);
+    plan.columns.push_back({extra, 1, 0, storage, offset});
+    offset += storage_size(storage);
+  }
+  if (offset > 65535) fail(file, "point records would exceed 65535 bytes (too many extra attributes)");
+  plan.header.record_length = static_cast<std::uint16_t>(offset);
+}
+
+Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuantization& q) {
+  Plan plan;
+  LasHeader& h = plan.header;
+  const LasMetadata* source = table.las ? &*table.las : nullptr;
+  if (source != nullptr) {
+    if (source->point_format < 0 || source->point_format > kMaxPointFormat || source->version_minor < 0 ||
+        source->version_minor > 4 || source->version_minor < min_version_minor(source->point_format)) {
+      fail(file, "cannot write point format " + std::to_string(source->point_format) + " as LAS 1." +
+                     std::to_string(source->version_minor));
+    }
+    h.version_minor = source->version_minor;
+    h.point_format = source->point_format;
+    h.file_source_id = source->file_source_id;
+    // Bit 1 (waveform data inside the file) is cleared: waveform packets are not copied.
+    h.global_encoding = static_cast<std::uint16_t>(source->global_encoding & ~2u);
+    h.project_guid = source->project_guid;
+    h.system_identifier = source->system_identifier;
+  } else {
+    h.version_minor = 4;
+    h.point_format = choose_format(table);
+    h.global_encoding = 16;  // WKT coordinate system bit, which 1.4 requires for formats 6-10
+    h.system_identifier = "OTHER";
+  }
+  h.generating_software = "pointfair";
+  h.creation_day = today_day_of_year(h.creation_year);
+  h.header_size = static_cast<std::uint16_t>(las_header_size(h.version_minor));
+  h.point_count = table.size();
+  if (h.version_minor < 4 && h.point_count > 0xffffffffu) {
+    fail(file, "LAS 1." + std::to_string(h.version_minor) + " holds at most 4294967295 points");
+  }
+  for (int a = 0; a < 3; ++a) {
+    h.scale[a] = q.scale[a];
+    h.offset[a] = q.offset[a];
+  }
+
+  // Standard fields, then the attributes left over as extra bytes.
+  std::vector<const Attribute*> used;
+  for (const LasField& field : las_fields(h.point_format)) {
+    Column column{table.find(field.name), 1, field.fallback, field.storage, field.offset, field.shift, field.bits};
+    if (column.source == nullptr && field.name == "scan_angle") {
+      column.source = table.find("scan_angle_rank");
+      column.factor = 1 / kScanAngleUnit;
+    } else if (column.source == nullptr && field.name == "scan_angle_rank") {
+      column.source = table.find("scan_angle");
+      column.factor = kScanAngleUnit;
+    }
+    // LAS colours are 16-bit: 8-bit colours (e.g. a PLY's) are scaled from 0-255 to 0-65535.
+    const bool colour = field.name == "red" || field.name == "green" || field.name == "blue" || field.name == "nir";
+    if (colour && column.source != nullptr && column.source->type == ScalarType::UInt8) column.factor = 257;
+    if (column.source != nullptr) used.push_back(column.source);
+    plan.columns.push_back(column);
+  }
+  std::vector<const Attribute*> extras;
+  for (const Attribute& attribute : table.attributes) {
+    if (std::find(used.begin(), used.end(), &attribute) == used.end()) extras.push_back(&attribute);
+  }
+  std::string descriptors;
+  plan_extra_bytes(file, source, extras, plan, descriptors);
+
+  if (!descriptors.empty()) {
+    plan.vlrs.push_back({std::string(kLasSpecUserId), kExtraBytesRecordId, "Extra Bytes", descriptors, false});
+  }
+  if (source != nullptr) {
+    for (const LasRecord& record : source->records) {
+      const bool long_record = record.data.size() > 65535;
+      if ((record.extended || long_record) && h.version_minor >= 4) {
+        plan.evlrs.push_back(record);
+      } else if (long_record) {
+        fail(file, "record '" + record.user_id + "' " + std::to_string(record.record_id) +
+                       " is too long for a VLR of LAS 1." + std::to_string(h.version_minor));
+      } else {
+        plan.vlrs.push_back(record);
+      }
+    }
+  }
+  std::uint64_t offset = h.header_size;
+  for (const LasRecord& record : plan.vlrs) offset += kVlrHeaderSize + record.data.size();
+  if (offset > 0xffffffffu) fail(file, "the VLRs exceed the 4 GiB a LAS header can point past");
+  h.point_data_offset = static_cast<std::uint32_t>(offset);
+  h.vlr_count = static_cast<std::uint32_t>(plan.vlrs.size());
+  h.evlr_count = static_cast<std::uint32_t>(plan.evlrs.size());
+  if (!plan.evlrs.empty()) h.evlr_start = offset + h.point_count * h.record_length;
+  return plan;
+}
+
+// Quantized positions' bounds and points by return, checked before anything is written.
+void scan_points(const fs::path& file, const PointTable& table, const PositionQuantization& q, LasHeader& h) {
+  const char* axes = "xyz";
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite(q.scale[a]) || q.scale[a] == 0 || !std::isfinite(q.offset[a])) {
+      fail(file, std::string("unusable ") + axes[a] + " scale or offset for LAS");
+    }
+  }
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    for (int a = 0; a < 3; ++a) {
+      const double stored = std::round((table.positions[i][a] - q.offset[a]) / q.scale[a]);
+      if (!(std::abs(stored) <= kInt32Max)) {
+        fail(file, "point " + std::to_string(i) + " (" + axes[a] + " = " + std::to_string(table.positions[i][a]) +
+                       ") lies outside the int32 range of the LAS scale and offset");
+      }
+      const double value = q.offset[a] + q.scale[a] * stored;
+      if (i == 0 || value < h.min[a]) h.min[a] = value;
+      if (i == 0 || value > h.max[a]) h.max[a] = value;
+    }
+  }
+  const std::size_t returns = h.point_format >= 6 ? 15 : 5;
+  const Attribute* number = table.find("return_number");
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    const double r = number != nullptr ? number->values[i] : 1;
+    if (r >= 1 && r <= static_cast<double>(returns)) ++h.points_by_return[static_cast<std::size_t>(r) - 1];
+  }
+}
+
+void encode_block(const PointTable& table, const PositionQuantization& q, const Plan& plan, std::size_t first,
+                  std::size_t records, std::vector<char>& block) {
+  const std::size_t record = plan.header.record_length;
+  std::fill(block.begin(), block.begin() + static_cast<std::ptrdiff_t>(records * record), '\0');
+  for (std::size_t r = 0; r < records; ++r) {
+    char* bytes = block.data() + r * record;
+    const Vec3& p = table.positions[first + r];
+    for (int a = 0; a < 3; ++a) {
+      store_le(LasStorage::I32, std::round((p[a] - q.offset[a]) / q.scale[a]), bytes + 4 * a);
+    }
+  }
+  for (const Column& column : plan.columns) {
+    for (std::size_t r = 0; r < records; ++r) {
+      char* bytes = block.data() + r * record + column.offset;
+      double value = column.source != nullptr ? column.source->values[first + r] * column.factor : column.fallback;
+      if (column.bits > 0) {
+        const double top = std::ldexp(1.0, static_cast<int>(column.bits)) - 1;
+        value = std::isnan(value) ? 0 : std::clamp(std::round(value), 0.0, top);
+        *bytes = static_cast<char>(static_cast<unsigned char>(*bytes) | (static_cast<unsigned>(value) << column.shift));
+      } else {
+        store_le(column.storage, value, bytes);
+      }
+    }
+  }
+}
+
+void write_record(FileSink& sink, const LasRecord& record, bool extended) {
+  std::string head(extended ? kEvlrHeaderSize : kVlrHeaderSize, '\0');
+  head.replace(2, 16, padded(record.user_id, 16));
+  store_le(LasStorage::U16, record.record_id, head.data() + 18);
+  if (extended) {
+    store_le(LasStorage::U64, static_cast<double>(record.data.size()), head.data() + 20);
+    head.replace(28, 32, padded(record.description, 32));
+  } else {
+    store_le(LasStorage::U16, static_cast<double>(record.data.size()), head.data() + 20);
+    head.replace(22, 32, padded(record.description, 32));
+  }
+  sink.write(head);
+  sink.write(record.data);
+}
+
+}  // namespace
+
+void write_las(const fs::path& file, const PointTable& table) {
+  check_table(file, table);
+  const PositionQuantization q = table.quantization ? *table.quantization : choose_quantization(table.positions);
+  Plan plan = plan_file(file, table, q);
+  scan_points(file, table, q, plan.header);
+
+  write_file_atomically(file, [&](FileSink& sink) {
+    sink.write(serialize_las_header(plan.header));
+    for (const LasRecord& record : plan.vlrs) write_record(sink, record, false);
+    const std::size_t record = plan.header.record_length;
+    const std::size_t count = table.size();
+    const std::size_t block_records = std::max<std::size_t>(1, kBlockBytes / record);
+    std::vector<char> block(std::min(count, block_records) * record);
+    for (std::size_t first = 0; first < count; first += block_records) {
+      const std::size_t records = std::min(block_records, count - first);
+      encode_block(table, q, plan, first, records, block);
+      sink.write(block.data(), records * record);
+    }
+    for (const LasRecord& evlr : plan.evlrs) write_record(sink, evlr, true);
+  });
+}
+
+}  // namespace pointfair::io
