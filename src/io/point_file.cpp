@@ -5,6 +5,7 @@
 
 #include "io_error.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/io/las.hpp"
 #include "pointfair/io/xyz.hpp"
 
 namespace pointfair::io {
@@ -13,7 +14,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-enum class Format { Ply, Text };
+enum class Format { Ply, Text, Las };
 
 std::string lower_extension(const fs::path& file) {
   std::string extension = file.extension().string();
@@ -27,27 +28,31 @@ Format format_of(const fs::path& file) {
   if (extension == ".xyz" || extension == ".txt" || extension == ".pts" || extension == ".csv") {
     return Format::Text;
   }
+  // read_las explains how to decompress a .laz file.
+  if (extension == ".las" || extension == ".laz") return Format::Las;
   // Formats users will reasonably try get a clearer message than "unknown".
-  if (extension == ".las" || extension == ".laz") {
-    detail::fail(file, "LAS/LAZ files are not supported by this build yet");
-  }
   if (extension == ".h5" || extension == ".hdf5") {
     detail::fail(file, "HDF5 files are not supported by this build yet");
   }
   detail::fail(file, "unknown file extension '" + file.extension().string() +
-                         "' (expected .ply, .xyz, .txt, .pts or .csv)");
+                         "' (expected .ply, .las, .xyz, .txt, .pts or .csv)");
 }
 
 }  // namespace
 
 bool is_supported_point_file(const fs::path& file) {
   const std::string extension = lower_extension(file);
-  return extension == ".ply" || extension == ".xyz" || extension == ".txt" || extension == ".pts" ||
+  return extension == ".ply" || extension == ".las" || extension == ".xyz" || extension == ".txt" || extension == ".pts" ||
          extension == ".csv";
 }
 
 PointTable read_points(const fs::path& file, const ReadOptions& options) {
-  return format_of(file) == Format::Ply ? read_ply(file, options) : read_xyz(file, options);
+  switch (format_of(file)) {
+    case Format::Ply: return read_ply(file, options);
+    case Format::Las: return read_las(file, options);
+    case Format::Text: break;
+  }
+  return read_xyz(file, options);
 }
 
 void write_points(const fs::path& file, const PointTable& table, const WriteOptions& options) {
@@ -55,6 +60,9 @@ void write_points(const fs::path& file, const PointTable& table, const WriteOpti
   if (!options.input.empty()) require_distinct(options.input, file);
   if (format == Format::Ply) {
     write_ply(file, table, options.ply_encoding);
+  } else if (format == Format::Las) {
+    if (lower_extension(file) == ".laz") detail::fail(file, "writing LAZ (compressed LAS) is not supported; write .las");
+    write_las(file, table);
   } else {
     write_xyz(file, table);
   }

@@ -11,6 +11,7 @@
 #include <random>
 #include <string>
 
+#include "pointfair/io/las.hpp"
 #include "pointfair/io/ply.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/shapes.hpp"
@@ -116,6 +117,48 @@ TEST_F(CliTest, SmoothWritesResultAndJsonSummary) {
   EXPECT_GT(moved, 0.0);
   EXPECT_LT(moved, 0.2);
   EXPECT_TRUE(files_except({"in.ply", "out.ply"}).empty());
+}
+
+// LAS in, LAS out: same point format and integer grid, per-point fields untouched.
+TEST_F(CliTest, SmoothLasKeepsFormatAndFields) {
+  io::PointTable t;
+  t.positions = sample_sphere(2000, 10.0, 3).points;
+  add_noise(t.positions, 0.1, 4);
+  std::vector<double> classification(t.size()), intensity(t.size()), gps(t.size());
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    classification[i] = static_cast<double>(i % 19);
+    intensity[i] = static_cast<double>((i * 7919) % 65536);
+    gps[i] = 1000.0 + 0.001 * static_cast<double>(i);
+  }
+  t.set("classification", io::ScalarType::UInt8, classification);
+  t.set("intensity", io::ScalarType::UInt16, intensity);
+  t.set("gps_time", io::ScalarType::Float64, gps);
+  t.las = io::LasMetadata{};
+  t.las->version_minor = 2;
+  t.las->point_format = 1;
+  t.quantization = io::PositionQuantization{Vec3(0.001, 0.001, 0.001), Vec3(0, 0, 0)};
+  const fs::path in = dir_ / "in.las", out = dir_ / "out.las";
+  io::write_las(in, t);
+  const RunResult r = run("smooth " + in.string() + " " + out.string() + " --steps 5 --quiet");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const io::PointTable original = io::read_las(in);
+  const io::PointTable result = io::read_las(out);
+  ASSERT_EQ(result.size(), original.size());
+  ASSERT_TRUE(result.las.has_value());
+  EXPECT_EQ(result.las->point_format, 1);
+  EXPECT_EQ(result.las->version_minor, 2);
+  EXPECT_EQ(result.quantization->scale, original.quantization->scale);
+  EXPECT_EQ(result.quantization->offset, original.quantization->offset);
+  for (const char* name : {"classification", "intensity", "gps_time", "return_number", "point_source_id"}) {
+    ASSERT_NE(result.find(name), nullptr) << name;
+    EXPECT_EQ(result.find(name)->values, original.find(name)->values) << name;
+  }
+  double moved = 0;
+  for (std::size_t i = 0; i < result.size(); ++i)
+    moved = std::max(moved, (result.positions[i] - original.positions[i]).norm());
+  EXPECT_GT(moved, 0.0);
+  EXPECT_LT(moved, 2.0);
+  EXPECT_TRUE(files_except({"in.las", "out.las"}).empty());
 }
 
 TEST_F(CliTest, CurvatureWritesEveryAttribute) {

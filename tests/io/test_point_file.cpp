@@ -58,7 +58,7 @@ TEST(PointFile, UnknownExtension) {
   TempDir dir;
   const auto file = dir / "cloud.foo";
   write_file(file, "1 2 3\n");
-  const char* expected = "unknown file extension '.foo' (expected .ply, .xyz, .txt, .pts or .csv)";
+  const char* expected = "unknown file extension '.foo' (expected .ply, .las, .xyz, .txt, .pts or .csv)";
   expect_io_error([&] { read_points(file); }, file, expected);
   expect_io_error([&] { write_points(dir / "out.foo", small_table()); }, dir / "out.foo", expected);
   expect_io_error([&] { read_points(dir / "noextension"); }, dir / "noextension",
@@ -73,21 +73,31 @@ TEST(PointFile, MissingFile) {
   expect_io_error([&] { read_points(text); }, text, "cannot open: No such file or directory");
 }
 
-TEST(PointFile, LasAndHdf5AreNotSupportedYet) {
+TEST(PointFile, Hdf5IsNotSupportedYet) {
   TempDir dir;
-  for (const char* name : {"scan.las", "scan.LAZ", "scan.h5"}) {
-    const auto file = dir / name;
-    expect_io_error([&] { read_points(file); }, file, "not supported by this build yet");
-    expect_io_error([&] { write_points(file, small_table()); }, file,
-                    "not supported by this build yet");
-  }
+  const auto file = dir / "scan.h5";
+  expect_io_error([&] { read_points(file); }, file, "not supported by this build yet");
+  expect_io_error([&] { write_points(file, small_table()); }, file, "not supported by this build yet");
+}
+
+TEST(PointFile, LasRoundTripsAndLazIsRefused) {
+  TempDir dir;
+  const auto file = dir / "scan.LAS";
+  write_points(file, small_table());
+  const PointTable back = read_points(file);
+  ASSERT_EQ(back.size(), small_table().size());
+  EXPECT_TRUE(back.las.has_value());
+  const auto laz = dir / "scan.LAZ";
+  expect_io_error([&] { read_points(laz); }, laz, "decompress it first");
+  expect_io_error([&] { write_points(laz, small_table()); }, laz, "writing LAZ (compressed LAS) is not supported");
+  EXPECT_EQ(dir.entries(), std::vector<std::string>{"scan.LAS"});
 }
 
 TEST(PointFile, IsSupportedPointFile) {
-  for (const char* name : {"a.ply", "a.PLY", "dir.d/a.xyz", "a.txt", "a.pts", "a.Csv"}) {
+  for (const char* name : {"a.ply", "a.PLY", "dir.d/a.xyz", "a.txt", "a.pts", "a.Csv", "a.las", "a.LAS"}) {
     EXPECT_TRUE(is_supported_point_file(name)) << name;
   }
-  for (const char* name : {"a.las", "a.laz", "a.h5", "a", "a.ply.gz", "ply"}) {
+  for (const char* name : {"a.laz", "a.h5", "a", "a.ply.gz", "ply"}) {
     EXPECT_FALSE(is_supported_point_file(name)) << name;
   }
 }

@@ -18,7 +18,7 @@ int run_export(const Args& args) {
                         "point order. For a container holding a finished smoothing run, the smoothed "
                         "positions and (with --attributes or --colour-by) the run's per-point results.");
   parser.positional("IN", "Input container (.h5).", &input);
-  parser.positional("OUT", "Output point file (.ply, .xyz, .txt, .pts, .csv).", &output);
+  parser.positional("OUT", "Output point file (.ply, .las, .xyz, .txt, .pts, .csv).", &output);
   parser.flag("tile-order", "Write points in the container's tile order instead of the input's order.",
               [&] { tile_order = true; });
   parser.flag("input-positions", "Write the input positions even when the container holds a run.",

@@ -24,8 +24,8 @@ int run_import(const Args& args) {
   ArgumentParser parser("pointfair import",
                         "Writes a point file into a tiled HDF5 scan container (see the README: "
                         "positions, every attribute, original indices, a tile table) for "
-                        "out-of-core runs. LAS/LAZ input is not supported yet.");
-  parser.positional("IN", "Input point file (.ply, .xyz, .txt, .pts, .csv).", &input);
+                        "out-of-core runs. LAZ input must be decompressed to LAS first.");
+  parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
   parser.positional("OUT", "Output container (.h5); written under a temporary name and renamed.", &output);
   parser.value("memory-budget", "SIZE",
                "Memory budget of later runs (e.g. 256M, 2G): sets the tile size. Default 256M.",

@@ -30,7 +30,7 @@ int run_smooth(const Args& args) {
                         "Denoises a point cloud with the anisotropic mean curvature flow of Lange & "
                         "Polthier (2005), keeping sharp edges and corners. Reads and writes PLY "
                         "(any encoding; extra vertex properties are carried through) and XYZ/CSV text.");
-  parser.positional("IN", "Input point file (.ply, .xyz, .txt, .pts, .csv).", &input);
+  parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
   parser.positional("OUT", "Output point file; written under a temporary name and renamed when complete.",
                     &output_path);
   add_method_options(parser, params);

@@ -14,16 +14,18 @@ struct WriteOptions {
 };
 
 /// True if the extension (case-insensitive) is one read_points/write_points handle:
-/// .ply, .xyz, .txt, .pts or .csv.
+/// .ply, .las, .xyz, .txt, .pts or .csv.
 bool is_supported_point_file(const std::filesystem::path& file);
 
-/// Reads `file` with read_ply (.ply) or read_xyz (.xyz .txt .pts .csv), case-insensitively.
+/// Reads `file` with read_ply (.ply), read_las (.las; .laz is refused with a hint to
+/// decompress it) or read_xyz (.xyz .txt .pts .csv), case-insensitively.
 /// Throws IoError "<file>: <problem>": "unknown file extension '.foo' (expected ...)",
-/// "... files are not supported by this build yet" for .las/.laz/.h5/.hdf5,
+/// "... files are not supported by this build yet" for .h5/.hdf5,
 /// "cannot open: No such file or directory", or any error of the format's reader.
 PointTable read_points(const std::filesystem::path& file, const ReadOptions& options = {});
 
-/// Writes `table` with write_ply (using options.ply_encoding) or write_xyz, by extension.
+/// Writes `table` with write_ply (using options.ply_encoding), write_las or write_xyz, by
+/// extension (.laz is refused).
 /// Throws IoError as read_points for the extension, "output would overwrite the input" when
 /// `file` is options.input, or any error of the format's writer.
 void write_points(const std::filesystem::path& file, const PointTable& table,
