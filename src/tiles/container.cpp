@@ -27,6 +27,57 @@ fs::path temporary_name(const fs::path& target) {
 
 }  // namespace
 
+namespace {
+
+// The LAS integer grid and format of a LAS input, so that export to LAS reproduces the
+// input's integers: attributes of /points/positions (scale and offset) and /points.
+void write_source_format(h5::File& f, const io::PointTable& table) {
+  if (table.quantization) {
+    const Vec3& scale = table.quantization->scale;
+    const Vec3& offset = table.quantization->offset;
+    f.set_attribute(layout::positions, "quantization_scale", std::span<const double>(scale.data(), 3));
+    f.set_attribute(layout::positions, "quantization_offset", std::span<const double>(offset.data(), 3));
+  }
+  if (table.las) {
+    f.set_attribute(layout::points, "las_version_minor", std::int64_t{table.las->version_minor});
+    f.set_attribute(layout::points, "las_point_format", std::int64_t{table.las->point_format});
+    f.set_attribute(layout::points, "las_global_encoding", std::int64_t{table.las->global_encoding});
+    f.set_attribute(layout::points, "las_file_source_id", std::int64_t{table.las->file_source_id});
+  }
+}
+
+void read_source_format(const h5::File& f, io::PointTable& table) {
+  if (f.has_attribute(layout::positions, "quantization_scale")) {
+    const std::vector<double> scale = f.doubles_attribute(layout::positions, "quantization_scale");
+    const std::vector<double> offset = f.doubles_attribute(layout::positions, "quantization_offset");
+    if (scale.size() != 3 || offset.size() != 3) f.fail(layout::positions, "quantization needs 3 scales and 3 offsets");
+    io::PositionQuantization q;
+    for (int a = 0; a < 3; ++a) {
+      const auto k = static_cast<std::size_t>(a);
+      if (!std::isfinite(scale[k]) || scale[k] == 0 || !std::isfinite(offset[k]))
+        f.fail(layout::positions, "quantization scale must be finite and non-zero, offset finite");
+      q.scale[a] = scale[k];
+      q.offset[a] = offset[k];
+    }
+    table.quantization = q;
+  }
+  if (f.has_attribute(layout::points, "las_point_format")) {
+    io::LasMetadata las;
+    const auto in_range = [&](const char* name, std::int64_t high) {
+      const std::int64_t v = f.int_attribute(layout::points, name);
+      if (v < 0 || v > high) f.fail(layout::points, std::string(name) + " out of range");
+      return v;
+    };
+    las.version_minor = static_cast<int>(in_range("las_version_minor", 4));
+    las.point_format = static_cast<int>(in_range("las_point_format", 10));
+    las.global_encoding = static_cast<std::uint16_t>(in_range("las_global_encoding", 65535));
+    las.file_source_id = static_cast<std::uint16_t>(in_range("las_file_source_id", 65535));
+    table.las = las;
+  }
+}
+
+}  // namespace
+
 void write_container(const fs::path& file, const io::PointTable& table, const ImportOptions& options) {
   options.tiling.validate();
   const std::uint64_t n = table.size();
@@ -56,6 +107,7 @@ void write_container(const fs::path& file, const io::PointTable& table, const Im
     h5::Dataset pos = f.create_dataset(layout::positions, h5::Type::Float64, n, 3, dopt);
     f.set_attribute(layout::positions, "source_type",
                     table.position_type == io::ScalarType::Float32 ? "float32" : "float64");
+    write_source_format(f, table);
     h5::Dataset orig = f.create_dataset(layout::original_index, h5::Type::UInt64, n, 0, dopt);
     std::vector<double> block;
     std::vector<std::uint64_t> index_block;
@@ -218,6 +270,7 @@ io::PointTable read_container(const fs::path& file, const ReadContainerOptions& 
                                 f.string_attribute(layout::positions, "source_type") == "float32"
                             ? io::ScalarType::Float32
                             : io::ScalarType::Float64;
+  read_source_format(f, table);
   if (f.exists(layout::attributes)) {
     for (const std::string& name : f.members(layout::attributes)) {
       const std::string path = std::string(layout::attributes) + "/" + name;
