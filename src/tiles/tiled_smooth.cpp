@@ -15,7 +15,9 @@
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/tiles/balance.hpp"
 #include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/ranks.hpp"
 #include "pointfair/version.hpp"
 
 namespace pointfair::tiles {
@@ -88,14 +90,20 @@ struct TileNeighbors {
 class Run {
  public:
   Run(const fs::path& input, const fs::path& output, const SmoothParams& params, const OutOfCoreOptions& options)
-      : input_path_(input), output_(output), params_(params), options_(options) {}
+      : input_path_(input), output_(output), params_(params), options_(options),
+        ranks_(options.ranks != nullptr ? options.ranks : &single_) {}
 
   OutOfCoreReport run();
 
  private:
   void open_or_create();
   void create(const fs::path& partial);
+  void share();
+  void release();
   void commit_state();
+  void balance(bool with_halo);
+  std::uint64_t my_first_row() const { return tiles_.offsets[first_tile_]; }
+  std::uint64_t my_end_row() const { return tiles_.offsets[end_tile_]; }
   void build_neighbors();
   double resolve_eps_tiled();
   double first_halo(std::size_t t) const;
@@ -109,8 +117,8 @@ class Run {
   void read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
                            std::vector<Vec3>& local) const;
   bool run_steps(OutOfCoreReport& report);
-  void write_attributes(double lambda);
-  void finish();
+  std::size_t write_attributes(double lambda);
+  void finish(std::size_t attributes_degenerate, double lambda);
   void account(std::uint64_t working);
   std::uint64_t persistent_bytes() const {
     return cache_bytes_ + halo_bytes_ + bytes(halo_rows_) + bytes(tiles_.offsets) + bytes(tiles_.bounds) + bytes(sample_rows_) +
@@ -137,6 +145,11 @@ class Run {
   fs::path input_path_, output_;
   SmoothParams params_;
   OutOfCoreOptions options_;
+  Ranks single_;
+  Ranks* ranks_;
+  bool shared_ = false;  // every rank has the file open (else only rank 0)
+  // This rank's tiles [first_tile_, end_tile_).
+  std::size_t first_tile_ = 0, end_tile_ = 0;
   std::optional<h5::File> file_;
   TileTable tiles_;
   std::uint64_t n_ = 0;
@@ -186,12 +199,47 @@ void Run::account(std::uint64_t working) {
 }
 
 void Run::commit_state() {
-  // Everything written before this point reaches the file first; then the small state
-  // record is overwritten in place (its storage was allocated when the file was created, so
-  // the write changes no metadata).
+  // Everything written before this point (by every rank) reaches the file first; then rank 0
+  // overwrites the small state record in place (its storage was allocated when the file was
+  // created, so the write changes no metadata).
   file().flush();
-  file().dataset(layout::run_state).write_rows(0, kStateSize, state_.data());
+  if (shared_) ranks_->barrier();
+  if (ranks_->rank() == 0) file().dataset(layout::run_state).write_rows(0, kStateSize, state_.data());
   file().flush();
+}
+
+void Run::share() {
+  // Rank 0 created or checked the file alone; now every rank opens it for parallel I/O.
+  if (ranks_->size() > 1) {
+    file_.reset();
+    ranks_->barrier();
+    file_.emplace(ranks_->open_shared(partial_name(output_)));
+    state_ = file().dataset(layout::run_state).read_all<std::int64_t>();
+  }
+  shared_ = true;
+}
+
+void Run::release() {
+  // The end of the parallel part: rank 0 alone finishes the file (metadata changes).
+  if (ranks_->size() > 1) {
+    file_.reset();
+    ranks_->barrier();
+    if (ranks_->rank() == 0) file_.emplace(h5::File::open(partial_name(output_), true));
+  }
+  shared_ = false;
+}
+
+void Run::balance(bool with_halo) {
+  std::vector<std::uint64_t> costs(tiles_.size());
+  for (std::size_t t = 0; t < tiles_.size(); ++t) costs[t] = tiles_.rows(t);
+  // A run started before the halo counts were recorded balances by points alone.
+  if (with_halo && !tiles_.bounds.empty() && file().exists(layout::neighbor_halo_counts)) {
+    const auto halo = file().dataset(layout::neighbor_halo_counts).read_all<std::uint64_t>();
+    for (std::size_t t = 0; t < costs.size() && t < halo.size(); ++t) costs[t] += halo[t];
+  }
+  const std::vector<std::size_t> b = balance_ranges(costs, ranks_->size());
+  first_tile_ = b[static_cast<std::size_t>(ranks_->rank())];
+  end_tile_ = b[static_cast<std::size_t>(ranks_->rank()) + 1];
 }
 
 void Run::create(const fs::path& partial) {
@@ -246,6 +294,8 @@ void Run::create(const fs::path& partial) {
   f.create_dataset(layout::neighbor_rows, h5::Type::UInt32, n_, static_cast<std::uint64_t>(k()), rows);
   f.create_dataset(layout::neighbor_counts, h5::Type::UInt16, n_, 0, rows);
   f.create_dataset(layout::neighbor_local, h5::Type::UInt32, n_, static_cast<std::uint64_t>(k()), rows);
+  f.create_dataset(layout::neighbor_halo_counts, h5::Type::UInt64, std::max<std::uint64_t>(tiles_.size(), 1), 0,
+                   early);
   f.create_dataset(positions_buffer(0), h5::Type::Float64, n_, 3, rows);
   f.create_dataset(positions_buffer(1), h5::Type::Float64, n_, 3, rows);
   if (options_.attributes) {
@@ -276,6 +326,7 @@ void Run::open_or_create() {
       global_bounds_[c] = std::min(global_bounds_[c], b[c]);
       global_bounds_[c + 3] = std::max(global_bounds_[c + 3], b[c + 3]);
     }
+  if (ranks_->rank() != 0) return;  // the others open the file in share()
 
   const fs::path partial = partial_name(output_);
   std::error_code ec;
@@ -399,7 +450,7 @@ double Run::resolve_eps_tiled() {
   const h5::Dataset orig = file().dataset(layout::original_index);
   std::vector<std::uint64_t> index;
   eps_ = std::numeric_limits<double>::infinity();  // the halo search below is unbounded
-  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t rows = tiles_.rows(t);
     if (rows == 0) continue;
     index.resize(rows);
@@ -427,8 +478,9 @@ double Run::resolve_eps_tiled() {
       }, 256);
       if (ok) break;
     }
-    progress("eps", t + 1, tiles_.size());
+    progress("eps", t + 1 - first_tile_, end_tile_ - first_tile_);
   }
+  ranks_->max(kth);  // each sample was measured by the rank of its tile, 0 elsewhere
   auto mid = kth.begin() + static_cast<std::ptrdiff_t>(samples / 2);
   std::nth_element(kth.begin(), mid, kth.end());
   const double spacing = *mid;
@@ -441,8 +493,9 @@ void Run::build_neighbors() {
   h5::Dataset rows_ds = file().dataset(layout::neighbor_rows);
   h5::Dataset counts_ds = file().dataset(layout::neighbor_counts);
   const std::size_t stride = static_cast<std::size_t>(k());
-  std::vector<std::uint32_t> out;
-  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+  h5::Dataset halo_ds = file().dataset(layout::neighbor_halo_counts);
+  std::vector<std::uint32_t> out, outside;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t rows = tiles_.rows(t);
     if (rows == 0) continue;
     for (double halo = first_halo(t);; halo *= 2.0) {
@@ -473,11 +526,22 @@ void Run::build_neighbors() {
       account(local.bytes() + local.positions.size() * 16 + bytes(nb.indices) + bytes(nb.counts) + bytes(out));
       rows_ds.write_rows(tiles_.offsets[t], rows, out.data());
       counts_ds.write_rows(tiles_.offsets[t], rows, nb.counts.data());
+      // The halo a step reads: the distinct neighbours outside the tile (balances the steps).
+      outside.clear();
+      for (std::size_t r = 0; r < nb.size(); ++r)
+        for (std::size_t j = 0; j < nb.counts[r]; ++j) {
+          const std::uint32_t g = out[r * stride + j];
+          if (g < tiles_.offsets[t] || g >= tiles_.offsets[t + 1]) outside.push_back(g);
+        }
+      std::sort(outside.begin(), outside.end());
+      const std::uint64_t halo_count =
+          static_cast<std::uint64_t>(std::unique(outside.begin(), outside.end()) - outside.begin());
+      halo_ds.write_rows(t, 1, &halo_count);
       break;
     }
-    progress("neighbors", t + 1, tiles_.size());
+    progress("neighbors", t + 1 - first_tile_, end_tile_ - first_tile_);
   }
-  file().dataset(layout::run_eps).write_rows(0, 1, &eps_);
+  if (ranks_->rank() == 0) file().dataset(layout::run_eps).write_rows(0, 1, &eps_);
   state_[kNeighborsDone] = 1;
   commit_state();
 }
@@ -492,13 +556,16 @@ void Run::prepare_lambda_sample() {
   sample_rows_.assign(samples, 0);
   const h5::Dataset orig = file().dataset(layout::original_index);
   std::vector<std::uint64_t> index;
-  for (std::uint64_t first = 0; first < n_; first += kScanBlock) {
-    const std::uint64_t count = std::min(kScanBlock, n_ - first);
+  // Each rank finds the samples among its rows (0 elsewhere); the maximum over the ranks is
+  // every sample's row.
+  for (std::uint64_t first = my_first_row(); first < my_end_row(); first += kScanBlock) {
+    const std::uint64_t count = std::min(kScanBlock, my_end_row() - first);
     index.resize(count);
     orig.read_rows(first, count, index.data());
     for (std::uint64_t r = 0; r < count; ++r)
       if (index[r] % stride == 0) sample_rows_[index[r] / stride] = first + r;
   }
+  ranks_->max(sample_rows_);
   std::vector<std::uint64_t> sorted = sample_rows_;
   std::sort(sorted.begin(), sorted.end());
   const std::size_t kk = static_cast<std::size_t>(k());
@@ -670,7 +737,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     const h5::Dataset source = file().dataset(source_of_step(step));
     h5::Dataset target = file().dataset(positions_buffer((step + 1) % 2));
     std::size_t degenerate = 0;
-    for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    for (std::size_t t = first_tile_; t < end_tile_; ++t) {
       const std::uint64_t rows = tiles_.rows(t), begin = tiles_.offsets[t];
       if (rows == 0) continue;
       const TileNeighbors& nb = neighbors_of(t, scratch);
@@ -688,10 +755,13 @@ bool Run::run_steps(OutOfCoreReport& report) {
       largest_local_ = std::max<std::uint64_t>(largest_local_, local.size());
       account(bytes(local) + bytes(next) + (caching_ ? 0 : scratch.bytes()) + bytes(identity));
     }
+    degenerate = static_cast<std::size_t>(ranks_->sum(degenerate));
     const double entry[2] = {lambda, static_cast<double>(degenerate)};
-    log.write_rows(static_cast<std::uint64_t>(step), 1, entry);
+    if (ranks_->rank() == 0) log.write_rows(static_cast<std::uint64_t>(step), 1, entry);
     state_[kCompletedSteps] = step + 1;
     commit_state();
+    // Each rank updated the sample's positions in its own tiles only: read the others'.
+    if (every_step && ranks_->size() > 1) load_sample_positions(target);
     report.steps = step + 1;
     report.lambda = lambda;
     report.degenerate = degenerate;
@@ -706,17 +776,25 @@ bool Run::run_steps(OutOfCoreReport& report) {
 
 // ---- attributes and the end ---------------------------------------------------------------------
 
-void Run::write_attributes(double lambda) {
+std::size_t Run::write_attributes(double lambda) {
   const std::string source_path = source_of_step(final_steps_);
   const h5::Dataset source = file().dataset(source_path);
   // compute_attributes orients normals away from the centre of the bounding box.
+  // Each rank bounds its own rows; the box of the cloud is the maximum over the ranks of
+  // (-min, max).
   Eigen::AlignedBox3d box;
   std::vector<Vec3> block;
-  for (std::uint64_t first = 0; first < n_; first += kScanBlock) {
-    const std::uint64_t count = std::min(kScanBlock, n_ - first);
+  for (std::uint64_t first = my_first_row(); first < my_end_row(); first += kScanBlock) {
+    const std::uint64_t count = std::min(kScanBlock, my_end_row() - first);
     block.resize(count);
     source.read_rows(first, count, block.data()->data());
     for (const Vec3& p : block) box.extend(p);
+  }
+  if (ranks_->size() > 1) {
+    std::array<double, 6> extent = {-box.min().x(), -box.min().y(), -box.min().z(),
+                                    box.max().x(),  box.max().y(),  box.max().z()};
+    ranks_->max(extent);
+    box = Eigen::AlignedBox3d(Vec3(-extent[0], -extent[1], -extent[2]), Vec3(extent[3], extent[4], extent[5]));
   }
   const std::string a = layout::run_attributes;
   h5::Dataset normal = file().dataset(a + "/normal"), d1 = file().dataset(a + "/d1"), d2 = file().dataset(a + "/d2");
@@ -729,7 +807,7 @@ void Run::write_attributes(double lambda) {
   TileNeighbors scratch;
   Neighborhoods extended;
   std::size_t degenerate = 0;
-  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t rows = tiles_.rows(t), begin = tiles_.offsets[t];
     if (rows == 0) continue;
     const TileNeighbors& nb = neighbors_of(t, scratch);
@@ -768,13 +846,17 @@ void Run::write_attributes(double lambda) {
     account(bytes(local) + bytes(extended.indices) + bytes(extended.counts) +
             pa.normal.size() * (9 * sizeof(double) + 4 * sizeof(double) + 1) + 3 * bytes(vn) + 4 * bytes(vk1) +
             bytes(vfeature) + (caching_ ? 0 : scratch.bytes()));
-    progress("attributes", t + 1, tiles_.size());
+    progress("attributes", t + 1 - first_tile_, end_tile_ - first_tile_);
   }
-  file().set_attribute(layout::run_attributes, "degenerate", static_cast<std::int64_t>(degenerate));
-  file().set_attribute(layout::run_attributes, "lambda", lambda);
+  return static_cast<std::size_t>(ranks_->sum(degenerate));
 }
 
-void Run::finish() {
+void Run::finish(std::size_t attributes_degenerate, double lambda) {
+  // Rank 0 alone from here (release()): attributes are metadata.
+  if (options_.attributes) {
+    file().set_attribute(layout::run_attributes, "degenerate", static_cast<std::int64_t>(attributes_degenerate));
+    file().set_attribute(layout::run_attributes, "lambda", lambda);
+  }
   file().set_attribute(layout::run, "result_positions", source_of_step(final_steps_));
   file().set_attribute(layout::run, "eps", eps_);
   state_[kFinished] = 1;
@@ -794,12 +876,15 @@ OutOfCoreReport Run::run() {
   io::require_distinct(input_path_, partial_name(output_));
   OutOfCoreReport report;
   open_or_create();
+  share();
   report.points = n_;
   report.tiles = tiles_.size();
   auto t0 = Clock::now();
+  balance(false);  // by points: the halos are not known yet
   if (state_[kNeighborsDone] == 0) build_neighbors();
   else file().dataset(layout::run_eps).read_rows(0, 1, &eps_);
   report.eps = eps_;
+  balance(true);
   if (auto_lambda_on()) prepare_lambda_sample();
   report.seconds_neighbors = seconds_since(t0);
   report.steps = static_cast<int>(state_[kCompletedSteps]);
@@ -825,9 +910,11 @@ OutOfCoreReport Run::run() {
   }
   report.lambda = lambda;
   t0 = Clock::now();
-  if (options_.attributes) write_attributes(lambda);
+  const std::size_t attributes_degenerate = options_.attributes ? write_attributes(lambda) : 0;
   report.seconds_attributes = seconds_since(t0);
-  finish();
+  release();
+  if (ranks_->rank() == 0) finish(attributes_degenerate, lambda);
+  ranks_->barrier();  // the run is in place when any rank returns
   report.finished = true;
   report.neighbors_cached = caching_;
   report.peak_accounted_bytes = peak_;

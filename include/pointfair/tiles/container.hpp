@@ -32,6 +32,7 @@ inline constexpr const char* run_step_log = "/run/step_log";
 inline constexpr const char* neighbor_rows = "/run/neighbors/rows";
 inline constexpr const char* neighbor_counts = "/run/neighbors/counts";
 inline constexpr const char* neighbor_local = "/run/neighbors/local";
+inline constexpr const char* neighbor_halo_counts = "/run/neighbors/halo_counts";
 inline constexpr const char* run_attributes = "/run/attributes";
 }  // namespace layout
 

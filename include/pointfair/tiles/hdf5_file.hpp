@@ -3,6 +3,8 @@
 // Handles close themselves; every failure throws io::IoError "<file>: <object>: <problem>".
 //
 // Thread-safety: libhdf5 (serial build) is not thread-safe; keep every call on one thread.
+// Processes: builds with -DPOINTFAIR_MPI=ON link parallel HDF5, and File::open_parallel opens
+// one file on every rank of an MPI job.
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -127,6 +129,12 @@ class File {
   static File create(const std::filesystem::path& path);
   /// Opens an existing file. Throws IoError "<path>: not an HDF5 file" or "cannot open ...".
   static File open(const std::filesystem::path& path, bool writable);
+  /// Opens an existing file for reading and writing on every process of an MPI communicator,
+  /// through the MPI-IO driver: a collective call (so are flush() and closing). `mpi_comm`
+  /// points to the MPI_Comm. Dataset reads and writes stay independent per process. Only in
+  /// builds against parallel HDF5 (parallel_available()); elsewhere throws IoError.
+  static File open_parallel(const std::filesystem::path& path, const void* mpi_comm);
+  static bool parallel_available();
 
   const std::filesystem::path& name() const { return name_; }
   hid id() const { return handle_.get(); }

@@ -21,6 +21,8 @@
 
 namespace pointfair::tiles {
 
+class Ranks;
+
 struct OutOfCoreOptions {
   /// Bytes of working memory the run may use for its buffers (tile, halo, neighbour lists,
   /// caches). libhdf5's chunk caches and the program itself come on top (a few tens of MiB).
@@ -31,8 +33,14 @@ struct OutOfCoreOptions {
   bool attributes = true;
   /// Stop (as if killed) after this many steps committed by this call; < 0: never. For tests.
   int stop_after_steps = -1;
-  /// Called with a phase name ("neighbors", "step", "attributes") and progress.
+  /// Called with a phase name ("eps", "neighbors", "step", "attributes") and progress (of this
+  /// rank's tiles in the per-tile phases).
   std::function<void(const std::string&, std::uint64_t, std::uint64_t)> progress;
+  /// The processes sharing the run (ranks.hpp), each calling smooth_out_of_core with the same
+  /// arguments; each builds the neighbourhoods of and steps its own contiguous range of tiles
+  /// (balanced by points plus halo), and every step is committed once all ranks wrote it.
+  /// Null: this process alone. The memory budget holds per rank.
+  Ranks* ranks = nullptr;
 };
 
 struct OutOfCoreReport {

@@ -1,0 +1,35 @@
+#pragma once
+// The processes that share one out-of-core run (see tiled_smooth.hpp). A plain run is one
+// rank: this base class, whose operations do nothing. pointfair_mpi passes the ranks of its
+// MPI communicator (mpi_ranks.hpp, built with -DPOINTFAIR_MPI=ON), so the same run code
+// drives one process or many.
+//
+// Every rank calls every operation in the same order (they are collective); values are
+// combined exactly (maxima and integer sums), so the result does not depend on the number of
+// ranks.
+#include <cstdint>
+#include <filesystem>
+#include <span>
+
+#include "pointfair/tiles/hdf5_file.hpp"
+
+namespace pointfair::tiles {
+
+class Ranks {
+ public:
+  virtual ~Ranks() = default;
+  /// This process's rank in 0..size()-1; rank 0 creates and finishes the run's file.
+  virtual int rank() const { return 0; }
+  virtual int size() const { return 1; }
+  /// Returns once every rank has called it.
+  virtual void barrier() {}
+  /// Element-wise maximum over the ranks, in place.
+  virtual void max(std::span<double> /*values*/) {}
+  virtual void max(std::span<std::uint64_t> /*values*/) {}
+  /// Sum over the ranks.
+  virtual std::uint64_t sum(std::uint64_t value) { return value; }
+  /// Opens the existing file `path` for reading and writing on every rank, for parallel I/O.
+  virtual h5::File open_shared(const std::filesystem::path& path) { return h5::File::open(path, true); }
+};
+
+}  // namespace pointfair::tiles

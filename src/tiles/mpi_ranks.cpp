@@ -1,0 +1,73 @@
+// MPI collectives behind Ranks: barrier, exact maxima and sums, the shared file.
+#include "pointfair/tiles/mpi_ranks.hpp"
+
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+
+#include <mpi.h>
+
+#include "pointfair/io/point_table.hpp"
+
+namespace pointfair::tiles {
+
+namespace {
+
+int count_of(std::size_t n) {
+  if (n > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+    throw io::IoError("MPI: a reduction over more than 2^31 values");
+  return static_cast<int>(n);
+}
+
+}  // namespace
+
+MpiSession::MpiSession(int& argc, char**& argv) {
+  // libhdf5 and pointfair call MPI from the main thread only (the kernels' threads never do).
+  int provided = 0;
+  MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+}
+
+MpiSession::~MpiSession() { MPI_Finalize(); }
+
+MpiRanks::MpiRanks() {
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+}
+
+void MpiRanks::barrier() { MPI_Barrier(MPI_COMM_WORLD); }
+
+void MpiRanks::max(std::span<double> values) {
+  if (size_ > 1)
+    MPI_Allreduce(MPI_IN_PLACE, values.data(), count_of(values.size()), MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+}
+
+void MpiRanks::max(std::span<std::uint64_t> values) {
+  if (size_ > 1)
+    MPI_Allreduce(MPI_IN_PLACE, values.data(), count_of(values.size()), MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
+}
+
+std::uint64_t MpiRanks::sum(std::uint64_t value) {
+  std::uint64_t total = value;
+  if (size_ > 1) MPI_Allreduce(&value, &total, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  return total;
+}
+
+h5::File MpiRanks::open_shared(const std::filesystem::path& path) {
+  const MPI_Comm comm = MPI_COMM_WORLD;
+  return h5::File::open_parallel(path, &comm);
+}
+
+void abort_job(const std::string& program, const std::string& message, int exit_code) {
+  int rank = 0, size = 1, initialized = 0;
+  MPI_Initialized(&initialized);
+  if (initialized) {
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+  }
+  std::fprintf(stderr, "%s: rank %d of %d: %s\n", program.c_str(), rank, size, message.c_str());
+  std::fflush(stderr);
+  if (initialized) MPI_Abort(MPI_COMM_WORLD, exit_code);
+  std::_Exit(exit_code);
+}
+
+}  // namespace pointfair::tiles

@@ -1,0 +1,151 @@
+// pointfair_mpi under mpirun (MpiRanks, mpi_ranks.hpp): the run on 2, 3 and 4 ranks is
+// bit-identical to the single-process smooth_out_of_core; a failing rank ends the job with a
+// message naming it, and the run resumes with another number of ranks, still bit-identical.
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/tiled_smooth.hpp"
+#include "tiles_test_util.hpp"
+
+using namespace pointfair;
+using namespace pointfair::tiles;
+
+namespace {
+
+constexpr int kSteps = 4;
+
+class MpiRunTest : public test::TempDirTest {
+ protected:
+  void SetUp() override {
+    TempDirTest::SetUp();
+    write_container(path("in.h5"), test::noisy_cube(12000, 31), test::tiled({.max_tile_points = 1500}));
+  }
+
+  // The single-process run of the same parameters, into `out`.
+  void run_serial(const std::string& out, bool resume = false) {
+    SmoothParams params;
+    params.steps = kSteps;
+    OutOfCoreOptions options;
+    options.resume = resume;
+    smooth_out_of_core(path("in.h5"), path(out), params, options);
+  }
+
+  // mpirun -np `ranks` pointfair_mpi smooth in.h5 `out` ...; returns the exit code (124 or
+  // 137 when it hung for a minute) and keeps stderr in `log_`.
+  int run_mpi(int ranks, const std::string& out, const std::string& env = "", bool resume = false) {
+    std::ostringstream cmd;
+    cmd << "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 "
+        << env << " timeout -k 5 60 " << POINTFAIR_MPIEXEC << " --oversubscribe -np " << ranks << " " << POINTFAIR_MPI_EXE
+        << " smooth " << path("in.h5") << " " << path(out) << " --steps " << kSteps << " --threads 1"
+        << (resume ? " --resume" : "") << " > " << path("log.txt") << " 2>&1";
+    const int status = std::system(cmd.str().c_str());
+    std::ifstream in(path("log.txt"));
+    std::stringstream text;
+    text << in.rdbuf();
+    log_ = text.str();
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+
+  // Every dataset and attribute of the run, compared to the bit.
+  void expect_same_run(const std::string& a, const std::string& b) {
+    const h5::File fa = h5::File::open(path(a), false), fb = h5::File::open(path(b), false);
+    std::vector<std::string> datasets = {"/run/positions_0",       "/run/positions_1",  "/run/neighbors/rows",
+                                         "/run/neighbors/counts",  "/run/neighbors/local",
+                                         "/run/neighbors/halo_counts", "/run/step_log", "/run/eps", "/run/state"};
+    for (const std::string& m : fa.members("/run/attributes")) datasets.push_back("/run/attributes/" + m);
+    EXPECT_EQ(fa.members("/run/attributes"), fb.members("/run/attributes"));
+    for (const std::string& d : datasets) {
+      const h5::Dataset da = fa.dataset(d), db = fb.dataset(d);
+      ASSERT_EQ(da.type(), db.type()) << d;
+      if (da.type() == h5::Type::Float64) {
+        const auto va = da.read_all<double>(), vb = db.read_all<double>();
+        ASSERT_EQ(va.size(), vb.size()) << d;
+        EXPECT_EQ(0, std::memcmp(va.data(), vb.data(), va.size() * sizeof(double))) << d;
+      } else {
+        EXPECT_EQ(da.read_all<std::uint64_t>(), db.read_all<std::uint64_t>()) << d;
+      }
+    }
+    EXPECT_EQ(fa.string_attribute("/run", "result_positions"), fb.string_attribute("/run", "result_positions"));
+    EXPECT_EQ(fa.double_attribute("/run", "eps"), fb.double_attribute("/run", "eps"));
+    EXPECT_EQ(fa.double_attribute("/run/attributes", "lambda"), fb.double_attribute("/run/attributes", "lambda"));
+    EXPECT_EQ(fa.int_attribute("/run/attributes", "degenerate"), fb.int_attribute("/run/attributes", "degenerate"));
+    EXPECT_EQ(read_container(path(a)).positions, read_container(path(b)).positions);
+  }
+
+  std::string log_;
+};
+
+TEST_F(MpiRunTest, TwoRanksBitIdenticalToOneProcess) {
+  run_serial("ref.h5");
+  ASSERT_EQ(run_mpi(2, "out.h5"), 0) << log_;
+  EXPECT_NE(log_.find("on 2 ranks"), std::string::npos) << log_;
+  EXPECT_FALSE(std::filesystem::exists(partial_name(path("out.h5"))));
+  expect_same_run("ref.h5", "out.h5");
+}
+
+TEST_F(MpiRunTest, ThreeAndFourRanksBitIdenticalToOneProcess) {
+  run_serial("ref.h5");
+  ASSERT_EQ(run_mpi(3, "out3.h5"), 0) << log_;
+  expect_same_run("ref.h5", "out3.h5");
+  ASSERT_EQ(run_mpi(4, "out4.h5"), 0) << log_;
+  expect_same_run("ref.h5", "out4.h5");
+}
+
+TEST_F(MpiRunTest, OneRankUnderMpirunBitIdenticalToOneProcess) {
+  run_serial("ref.h5");
+  ASSERT_EQ(run_mpi(1, "out.h5"), 0) << log_;
+  expect_same_run("ref.h5", "out.h5");
+}
+
+TEST_F(MpiRunTest, FailingRankStopsTheJobAndTheRunResumesOnOtherRankCounts) {
+  run_serial("ref.h5");
+  // Rank 1 of 2 fails after step 2 was committed, while rank 0 already works on step 3.
+  EXPECT_NE(run_mpi(2, "out.h5", "POINTFAIR_MPI_FAIL_AT=1:2"), 0);
+  EXPECT_NE(log_.find("pointfair_mpi: rank 1 of 2:"), std::string::npos) << log_;
+  EXPECT_NE(log_.find("failure injected"), std::string::npos) << log_;
+  EXPECT_FALSE(std::filesystem::exists(path("out.h5")));
+  ASSERT_TRUE(std::filesystem::exists(partial_name(path("out.h5"))));
+  {
+    const h5::File partial = h5::File::open(partial_name(path("out.h5")), false);
+    EXPECT_EQ(partial.dataset("/run/state").read_all<std::int64_t>()[2], 2);  // completed steps
+  }
+  // Without --resume the partial run is in the way.
+  EXPECT_NE(run_mpi(3, "out.h5"), 0);
+  EXPECT_NE(log_.find("--resume"), std::string::npos) << log_;
+  // Resumed on 3 ranks.
+  ASSERT_EQ(run_mpi(3, "out.h5", "", true), 0) << log_;
+  EXPECT_NE(log_.find("(2 resumed)"), std::string::npos) << log_;
+  expect_same_run("ref.h5", "out.h5");
+}
+
+TEST_F(MpiRunTest, StoppedOnThreeRanksResumedByOneProcessAndViceVersa) {
+  run_serial("ref.h5");
+  ASSERT_EQ(run_mpi(3, "a.h5", "POINTFAIR_MPI_STOP_AFTER_STEPS=1"), 0) << log_;
+  ASSERT_FALSE(std::filesystem::exists(path("a.h5")));
+  run_serial("a.h5", true);
+  expect_same_run("ref.h5", "a.h5");
+
+  SmoothParams params;
+  params.steps = kSteps;
+  OutOfCoreOptions options;
+  options.stop_after_steps = 3;
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("b.h5"), params, options).finished);
+  ASSERT_EQ(run_mpi(2, "b.h5", "", true), 0) << log_;
+  expect_same_run("ref.h5", "b.h5");
+}
+
+TEST_F(MpiRunTest, MissingInputEndsEveryRankWithTheFileNamed) {
+  std::filesystem::remove(path("in.h5"));
+  const int code = run_mpi(2, "out.h5");
+  EXPECT_NE(code, 0);
+  EXPECT_NE(log_.find("in.h5: cannot open"), std::string::npos) << log_;
+  EXPECT_NE(log_.find("rank 0 of 2"), std::string::npos) << log_;
+  EXPECT_FALSE(std::filesystem::exists(path("out.h5")));
+}
+
+}  // namespace

@@ -1,0 +1,145 @@
+// pointfair_mpi: the out-of-core smooth of an HDF5 container on the ranks of an MPI job
+// (mpirun / srun), over parallel HDF5. Same options and same result, to the bit, as
+// `pointfair smooth IN.h5 OUT.h5` for any number of ranks. Built with -DPOINTFAIR_MPI=ON.
+//
+// Exit codes as pointfair's: 0 ok (or stopped by the test hook), 1 unexpected failure,
+// 2 bad arguments or parameters, 3 input/output error. A rank that fails ends the whole job
+// (MPI_Abort) with "pointfair_mpi: rank R of N: <problem>"; the committed steps stay in
+// OUT.partial, and --resume continues them with any number of ranks.
+//
+// Test hooks (environment): POINTFAIR_MPI_STOP_AFTER_STEPS=S stops every rank after S steps
+// committed by this call, as if killed; POINTFAIR_MPI_FAIL_AT=R:S makes rank R fail right
+// after step S was committed (the others are then waiting in step S + 1).
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "cli/arguments.hpp"
+#include "cli/method_options.hpp"
+#include "cli/out_of_core.hpp"
+#include "pointfair/io/point_table.hpp"
+#include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
+#include "pointfair/tiles/mpi_ranks.hpp"
+#include "pointfair/tiles/tiled_smooth.hpp"
+#include "pointfair/version.hpp"
+
+namespace {
+
+using namespace pointfair;
+
+constexpr const char* kProgram = "pointfair_mpi";
+
+// "R:S" of POINTFAIR_MPI_FAIL_AT, or {-1, -1}.
+std::pair<int, int> injected_failure() {
+  const char* v = std::getenv("POINTFAIR_MPI_FAIL_AT");
+  if (v == nullptr) return {-1, -1};
+  const std::string s = v;
+  const std::size_t colon = s.find(':');
+  if (colon == std::string::npos) throw cli::UsageError("POINTFAIR_MPI_FAIL_AT must be RANK:STEP");
+  return {cli::parse_int(s.substr(0, colon), "POINTFAIR_MPI_FAIL_AT"),
+          cli::parse_int(s.substr(colon + 1), "POINTFAIR_MPI_FAIL_AT")};
+}
+
+int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
+  std::string input, output;
+  SmoothParams params;
+  tiles::OutOfCoreOptions options;
+  int threads = 0;
+  bool quiet = false;
+  cli::ArgumentParser parser(
+      "pointfair_mpi smooth",
+      "The out-of-core smooth of an HDF5 container (from pointfair import) on the ranks of an "
+      "MPI job: each rank builds the neighbourhoods of and steps a balanced range of tiles, "
+      "reading and writing the run file with parallel HDF5; every step is committed once all "
+      "ranks wrote it. The result is bit-identical to pointfair smooth IN.h5 OUT.h5.");
+  parser.positional("IN", "Input container (.h5).", &input);
+  parser.positional("OUT", "Output container (.h5); OUT.partial holds the run until it ends.", &output);
+  cli::add_method_options(parser, params);
+  parser.value("memory-budget", "SIZE", "Working memory of each rank (e.g. 256M, 2G). Default 256M.",
+               [&](std::string_view v) { options.memory_budget = cli::parse_size(v, "--memory-budget"); });
+  parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters, any number of ranks).",
+              [&] { options.resume = true; });
+  parser.value("threads", "N", "Worker threads per rank; 0 = all cores. Default 0.", [&](std::string_view v) {
+    threads = cli::parse_int(v, "--threads");
+    if (threads < 0) throw cli::UsageError("--threads must be >= 0");
+  });
+  parser.flag("quiet", "No progress or summary on stderr.", [&] { quiet = true; });
+  if (!parser.parse(args)) return 0;
+  params.validate();
+  set_thread_count(threads);
+  if (const char* stop = std::getenv("POINTFAIR_MPI_STOP_AFTER_STEPS"))
+    options.stop_after_steps = cli::parse_int(stop, "POINTFAIR_MPI_STOP_AFTER_STEPS");
+  const auto [fail_rank, fail_step] = injected_failure();
+  const bool talk = !quiet && ranks.rank() == 0;
+  options.ranks = &ranks;
+  options.progress = [&](const std::string& phase, std::uint64_t done, std::uint64_t total) {
+    if (phase != "step") return;
+    if (ranks.rank() == fail_rank && static_cast<int>(done) == fail_step)
+      throw io::IoError(output + ": failure injected by POINTFAIR_MPI_FAIL_AT after step " + std::to_string(done));
+    if (talk) std::fprintf(stderr, "%s: step %llu/%llu\n", kProgram, static_cast<unsigned long long>(done),
+                           static_cast<unsigned long long>(total));
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  const tiles::OutOfCoreReport report = tiles::smooth_out_of_core(input, output, params, options);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (talk)
+    std::fprintf(stderr,
+                 "%s: %llu points in %zu tiles on %d ranks, %d steps (%d resumed)%s (lambda %.4g, eps %.4g) in "
+                 "%.2f s (neighbours %.2f s, steps %.2f s, attributes %.2f s on rank 0) -> %s\n",
+                 kProgram, static_cast<unsigned long long>(report.points), report.tiles, ranks.size(), report.steps,
+                 report.resumed_from, report.finished ? "" : ", stopped (POINTFAIR_MPI_STOP_AFTER_STEPS)",
+                 report.lambda, report.eps, seconds, report.seconds_neighbors, report.seconds_steps,
+                 report.seconds_attributes, report.finished ? output.c_str() : tiles::partial_name(output).c_str());
+  return 0;
+}
+
+// The terminate handler: names this rank and the problem, and ends every rank of the job.
+[[noreturn]] void on_failure() {
+  std::string message = "unexpected failure";
+  int code = 1;
+  if (const std::exception_ptr error = std::current_exception()) {
+    try {
+      std::rethrow_exception(error);
+    } catch (const cli::UsageError& e) {
+      message = e.what();
+      code = 2;
+    } catch (const ParamError& e) {
+      message = e.what();
+      code = 2;
+    } catch (const io::IoError& e) {
+      message = e.what();
+      code = 3;
+    } catch (const std::exception& e) {
+      message = std::string("unexpected failure: ") + e.what();
+    } catch (...) {
+    }
+  }
+  tiles::abort_job(kProgram, message, code);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  tiles::MpiSession session(argc, argv);
+  const std::vector<std::string> all(argv + 1, argv + argc);
+  if (all.empty() || (all[0] != "smooth" && all[0] != "version" && all[0] != "--version")) {
+    std::fprintf(stderr, "usage: %s smooth IN.h5 OUT.h5 [options]   (%s smooth --help lists them)\n", kProgram,
+                 kProgram);
+    return 2;
+  }
+  if (all[0] != "smooth") {
+    std::printf("%s %s\n", kProgram, version());
+    return 0;
+  }
+  // A failure ends the job from std::terminate: the exception is not caught, so the stack is
+  // not unwound (unwinding would close the shared file, a collective call that the other
+  // ranks, busy with their tiles, would never join).
+  std::set_terminate(on_failure);
+  tiles::MpiRanks ranks;
+  return run(std::vector<std::string>(all.begin() + 1, all.end()), ranks);
+}
