@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds pointfair (Release, warnings as errors) and runs the whole test suite with ctest,
 # then the MPI stage (pointfair_mpi under mpirun), then the hardening runs: the io, cli and
-# hardening tests again under AddressSanitizer + UndefinedBehaviorSanitizer, and a short libFuzzer run of every reader when clang is there.
+# hardening tests again under AddressSanitizer + UndefinedBehaviorSanitizer, and a short
+# libFuzzer run of every reader when clang is there.
 # POINTFAIR_HARDENING=0 skips the hardening runs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
