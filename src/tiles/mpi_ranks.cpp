@@ -3,7 +3,9 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
+#include <vector>
 
 #include <mpi.h>
 
@@ -50,6 +52,14 @@ std::uint64_t MpiRanks::sum(std::uint64_t value) {
   std::uint64_t total = value;
   if (size_ > 1) MPI_Allreduce(&value, &total, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
   return total;
+}
+
+void MpiRanks::merge(std::span<double> values) {
+  if (size_ <= 1 || values.empty()) return;
+  std::vector<std::uint64_t> bits(values.size());
+  std::memcpy(bits.data(), values.data(), values.size() * sizeof(double));
+  MPI_Allreduce(MPI_IN_PLACE, bits.data(), count_of(bits.size()), MPI_UINT64_T, MPI_BOR, MPI_COMM_WORLD);
+  std::memcpy(values.data(), bits.data(), values.size() * sizeof(double));
 }
 
 h5::File MpiRanks::open_shared(const std::filesystem::path& path) {

@@ -150,6 +150,7 @@ class Run {
   bool shared_ = false;  // every rank has the file open (else only rank 0)
   // This rank's tiles [first_tile_, end_tile_).
   std::size_t first_tile_ = 0, end_tile_ = 0;
+  std::uint64_t halo_points_ = 0;
   std::optional<h5::File> file_;
   TileTable tiles_;
   std::uint64_t n_ = 0;
@@ -235,7 +236,11 @@ void Run::balance(bool with_halo) {
   // A run started before the halo counts were recorded balances by points alone.
   if (with_halo && !tiles_.bounds.empty() && file().exists(layout::neighbor_halo_counts)) {
     const auto halo = file().dataset(layout::neighbor_halo_counts).read_all<std::uint64_t>();
-    for (std::size_t t = 0; t < costs.size() && t < halo.size(); ++t) costs[t] += halo[t];
+    halo_points_ = 0;
+    for (std::size_t t = 0; t < costs.size() && t < halo.size(); ++t) {
+      costs[t] += halo[t];
+      halo_points_ += halo[t];
+    }
   }
   const std::vector<std::size_t> b = balance_ranges(costs, ranks_->size());
   first_tile_ = b[static_cast<std::size_t>(ranks_->rank())];
@@ -755,13 +760,19 @@ bool Run::run_steps(OutOfCoreReport& report) {
       largest_local_ = std::max<std::uint64_t>(largest_local_, local.size());
       account(bytes(local) + bytes(next) + (caching_ ? 0 : scratch.bytes()) + bytes(identity));
     }
+    if (every_step && ranks_->size() > 1) {
+      // Each rank updated the sample's positions in its own tiles: exchange them.
+      const auto first = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), my_first_row()) - gather_rows_.begin();
+      const auto end = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), my_end_row()) - gather_rows_.begin();
+      std::fill(gather_positions_.begin(), gather_positions_.begin() + first, Vec3::Zero());
+      std::fill(gather_positions_.begin() + end, gather_positions_.end(), Vec3::Zero());
+      ranks_->merge(std::span<double>(gather_positions_.data()->data(), 3 * gather_positions_.size()));
+    }
     degenerate = static_cast<std::size_t>(ranks_->sum(degenerate));
     const double entry[2] = {lambda, static_cast<double>(degenerate)};
     if (ranks_->rank() == 0) log.write_rows(static_cast<std::uint64_t>(step), 1, entry);
     state_[kCompletedSteps] = step + 1;
     commit_state();
-    // Each rank updated the sample's positions in its own tiles only: read the others'.
-    if (every_step && ranks_->size() > 1) load_sample_positions(target);
     report.steps = step + 1;
     report.lambda = lambda;
     report.degenerate = degenerate;
@@ -885,6 +896,7 @@ OutOfCoreReport Run::run() {
   else file().dataset(layout::run_eps).read_rows(0, 1, &eps_);
   report.eps = eps_;
   balance(true);
+  report.halo_points = halo_points_;
   if (auto_lambda_on()) prepare_lambda_sample();
   report.seconds_neighbors = seconds_since(t0);
   report.steps = static_cast<int>(state_[kCompletedSteps]);

@@ -2,6 +2,7 @@
 // eps and lambda policy and thread count; they resume to the same bits; they account memory.
 #include "pointfair/tiles/tiled_smooth.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -242,6 +243,41 @@ TEST_F(TiledSmoothTest, RefusesWhatItCannotDoExactly) {
   const auto before = std::filesystem::last_write_time(path("in.h5"));
   smooth_out_of_core(path("in.h5"), path("run.h5"), few_steps(1));
   EXPECT_EQ(std::filesystem::last_write_time(path("in.h5")), before);
+}
+
+}  // namespace
+
+namespace {
+
+class TiledHaloTest : public test::TempDirTest {};
+
+// The recorded halo of each tile (what the MPI ranks balance by) is the number of distinct
+// neighbours outside the tile, and the report sums it.
+TEST_F(TiledHaloTest, HaloCountsAreTheDistinctNeighboursOutsideEachTile) {
+  write_container(path("in.h5"), test::noisy_cube(6000, 41), test::tiled({.max_tile_points = 800}));
+  const OutOfCoreReport report = smooth_out_of_core(path("in.h5"), path("out.h5"), few_steps(1));
+  const h5::File f = h5::File::open(path("out.h5"), false);
+  const TileTable tiles = read_tile_table(f);
+  const auto halo = f.dataset(layout::neighbor_halo_counts).read_all<std::uint64_t>();
+  const auto rows = f.dataset(layout::neighbor_rows).read_all<std::uint32_t>();
+  const auto counts = f.dataset(layout::neighbor_counts).read_all<std::uint16_t>();
+  ASSERT_EQ(halo.size(), tiles.size());
+  ASSERT_GT(tiles.size(), 4u);
+  std::uint64_t total = 0;
+  for (std::size_t t = 0; t < tiles.size(); ++t) {
+    std::vector<std::uint32_t> outside;
+    for (std::uint64_t r = tiles.offsets[t]; r < tiles.offsets[t + 1]; ++r)
+      for (std::size_t j = 0; j < counts[r]; ++j) {
+        const std::uint32_t g = rows[r * 16 + j];
+        if (g < tiles.offsets[t] || g >= tiles.offsets[t + 1]) outside.push_back(g);
+      }
+    std::sort(outside.begin(), outside.end());
+    outside.erase(std::unique(outside.begin(), outside.end()), outside.end());
+    EXPECT_EQ(halo[t], outside.size()) << "tile " << t;
+    EXPECT_GT(halo[t], 0u) << "tile " << t;  // tiles of a closed surface touch others
+    total += halo[t];
+  }
+  EXPECT_EQ(report.halo_points, total);
 }
 
 }  // namespace

@@ -89,9 +89,13 @@ int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (talk)
     std::fprintf(stderr,
-                 "%s: %llu points in %zu tiles on %d ranks, %d steps (%d resumed)%s (lambda %.4g, eps %.4g) in "
+                 "%s: %llu points in %zu tiles (halos %.1f%% of the points) on %d ranks, %d steps (%d resumed)%s "
+                 "(lambda %.4g, eps %.4g) in "
                  "%.2f s (neighbours %.2f s, steps %.2f s, attributes %.2f s on rank 0) -> %s\n",
-                 kProgram, static_cast<unsigned long long>(report.points), report.tiles, ranks.size(), report.steps,
+                 kProgram, static_cast<unsigned long long>(report.points), report.tiles,
+                 report.points > 0 ? 100.0 * static_cast<double>(report.halo_points) / static_cast<double>(report.points)
+                                   : 0.0,
+                 ranks.size(), report.steps,
                  report.resumed_from, report.finished ? "" : ", stopped (POINTFAIR_MPI_STOP_AFTER_STEPS)",
                  report.lambda, report.eps, seconds, report.seconds_neighbors, report.seconds_steps,
                  report.seconds_attributes, report.finished ? output.c_str() : tiles::partial_name(output).c_str());

@@ -28,6 +28,7 @@ class MpiRanks final : public Ranks {
   void max(std::span<double> values) override;
   void max(std::span<std::uint64_t> values) override;
   std::uint64_t sum(std::uint64_t value) override;
+  void merge(std::span<double> values) override;
   h5::File open_shared(const std::filesystem::path& path) override;
 
  private:

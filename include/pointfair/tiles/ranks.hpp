@@ -28,6 +28,9 @@ class Ranks {
   virtual void max(std::span<std::uint64_t> /*values*/) {}
   /// Sum over the ranks.
   virtual std::uint64_t sum(std::uint64_t value) { return value; }
+  /// Each value is held by one rank, the others hold +0.0 there: afterwards every rank holds
+  /// every value, bit for bit (a bitwise or of the ranks' bits).
+  virtual void merge(std::span<double> /*values*/) {}
   /// Opens the existing file `path` for reading and writing on every rank, for parallel I/O.
   virtual h5::File open_shared(const std::filesystem::path& path) { return h5::File::open(path, true); }
 };

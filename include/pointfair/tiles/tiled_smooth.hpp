@@ -59,6 +59,9 @@ struct OutOfCoreReport {
   /// The largest working set the run accounted for (bytes), and the largest tile + halo.
   std::uint64_t peak_accounted_bytes = 0;
   std::uint64_t largest_tile_with_halo = 0;
+  /// Halo rows a step reads, summed over the tiles (the I/O of a step beyond the tiles
+  /// themselves); 0 when the run file does not record them.
+  std::uint64_t halo_points = 0;
   double seconds_neighbors = 0.0;
   double seconds_steps = 0.0;
   double seconds_attributes = 0.0;
