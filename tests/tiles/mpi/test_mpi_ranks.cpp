@@ -38,8 +38,11 @@ class MpiRunTest : public test::TempDirTest {
   // mpirun -np `ranks` pointfair_mpi smooth in.h5 `out` ...; returns the exit code (124 or
   // 137 when it hung for a minute) and keeps stderr in `log_`.
   int run_mpi(int ranks, const std::string& out, const std::string& env = "", bool resume = false) {
+    // As root, OpenMPI wants the two ALLOW variables; containers often forbid the
+    // cross-memory attach of its shared-memory transport, hence single_copy_mechanism=none.
     std::ostringstream cmd;
     cmd << "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 "
+        << "OMPI_MCA_btl_vader_single_copy_mechanism=none "
         << env << " timeout -k 5 60 " << POINTFAIR_MPIEXEC << " --oversubscribe -np " << ranks << " " << POINTFAIR_MPI_EXE
         << " smooth " << path("in.h5") << " " << path(out) << " --steps " << kSteps << " --threads 1"
         << (resume ? " --resume" : "") << " > " << path("log.txt") << " 2>&1";
