@@ -74,51 +74,66 @@ void sync_directory(const fs::path& target) {
 
 }  // namespace
 
-void write_file_atomically(const fs::path& target,
-                           const std::function<void(FileSink&)>& write_body) {
-  if (target.filename().empty()) fail(target, "not a file name");
+AtomicFile::AtomicFile(fs::path target) : target_(std::move(target)) {
+  if (target_.filename().empty()) fail(target_, "not a file name");
   struct stat existing {};
-  const bool target_exists = ::stat(target.c_str(), &existing) == 0;
+  const bool target_exists = ::stat(target_.c_str(), &existing) == 0;
   if (target_exists && S_ISDIR(existing.st_mode)) {
-    fail(target, "cannot write: " + system_error_text(EISDIR));
+    fail(target_, "cannot write: " + system_error_text(EISDIR));
   }
-
-  fs::path temporary;
-  const int fd = create_temporary(target, temporary);
+  const int fd = create_temporary(target_, temporary_);
   if (target_exists) ::fchmod(fd, existing.st_mode & 07777);
-  std::FILE* file = ::fdopen(fd, "wb");
-  if (file == nullptr) {
+  file_ = ::fdopen(fd, "wb");
+  if (file_ == nullptr) {
     const int error = errno;
     ::close(fd);
-    ::unlink(temporary.c_str());
-    fail(target, "cannot create file: " + system_error_text(error));
+    ::unlink(temporary_.c_str());
+    fail(target_, "cannot create file: " + system_error_text(error));
   }
+  sink_.emplace(file_, target_);
+}
 
+AtomicFile::~AtomicFile() { abandon(); }
+
+void AtomicFile::abandon() {
+  if (file_ == nullptr) return;
+  std::fclose(file_);
+  file_ = nullptr;
+  ::unlink(temporary_.c_str());
+}
+
+void AtomicFile::commit() {
   try {
-    FileSink sink(file, target);
-    write_body(sink);
-    sink.flush();
+    sink_->flush();
     // EINVAL: the file system cannot sync this kind of file, which is not a write error.
-    if (::fsync(::fileno(file)) != 0 && errno != EINVAL) {
-      fail(target, "write failed: " + system_error_text(errno));
+    if (::fsync(::fileno(file_)) != 0 && errno != EINVAL) {
+      fail(target_, "write failed: " + system_error_text(errno));
     }
   } catch (...) {
-    std::fclose(file);
-    ::unlink(temporary.c_str());
+    abandon();
     throw;
   }
   // fclose can report a delayed write error (e.g. on network file systems).
-  if (std::fclose(file) != 0) {
+  const int closed = std::fclose(file_);
+  file_ = nullptr;
+  if (closed != 0) {
     const int error = errno;
-    ::unlink(temporary.c_str());
-    fail(target, "write failed: " + system_error_text(error));
+    ::unlink(temporary_.c_str());
+    fail(target_, "write failed: " + system_error_text(error));
   }
-  if (::rename(temporary.c_str(), target.c_str()) != 0) {
+  if (::rename(temporary_.c_str(), target_.c_str()) != 0) {
     const int error = errno;
-    ::unlink(temporary.c_str());
-    fail(target, "cannot replace file: " + system_error_text(error));
+    ::unlink(temporary_.c_str());
+    fail(target_, "cannot replace file: " + system_error_text(error));
   }
-  sync_directory(target);
+  sync_directory(target_);
+}
+
+void write_file_atomically(const fs::path& target,
+                           const std::function<void(FileSink&)>& write_body) {
+  AtomicFile file(target);
+  write_body(file.sink());
+  file.commit();
 }
 
 void require_distinct(const fs::path& input, const fs::path& output) {

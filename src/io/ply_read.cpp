@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -12,6 +14,7 @@
 #include "number_text.hpp"
 #include "ply_header.hpp"
 #include "pointfair/io/ply.hpp"
+#include "pointfair/io/point_chunks.hpp"
 #include "scalar_codec.hpp"
 #include "table_checks.hpp"
 
@@ -94,33 +97,40 @@ void check_point_limit(const fs::path& file, std::uint64_t count) {
   }
 }
 
+// Checked before anything is allocated, so a corrupt count cannot trigger a huge allocation.
+void check_binary_count(FileReader& reader, const PlyElement& vertex, const VertexLayout& layout) {
+  const std::uint64_t available = reader.remaining() / layout.record_size;
+  if (vertex.count > available) fail_truncated(reader.path(), false, vertex, available);
+  check_point_limit(reader.path(), vertex.count);
+}
+
+// Appends vertices [first, first + count) of the body to `table`, a block at a time.
 void read_binary_vertices(FileReader& reader, const PlyElement& vertex, const VertexLayout& layout,
-                          bool swap, PointTable& table) {
+                          bool swap, std::size_t first, std::size_t count, std::vector<char>& block,
+                          PointTable& table) {
   const fs::path& file = reader.path();
   const std::size_t record = layout.record_size;
-  // Checked before allocating, so a corrupt count cannot trigger a huge allocation.
-  const std::uint64_t available = reader.remaining() / record;
-  if (vertex.count > available) fail_truncated(file, false, vertex, available);
-  check_point_limit(file, vertex.count);
-  const auto count = static_cast<std::size_t>(vertex.count);
-  table.positions.resize(count);
-  for (Attribute& attribute : table.attributes) attribute.values.resize(count);
+  const std::size_t start = table.positions.size();
+  table.positions.resize(start + count);
+  for (Attribute& attribute : table.attributes) attribute.values.resize(start + count);
 
   const std::size_t block_records = std::max<std::size_t>(1, kBlockBytes / record);
-  std::vector<char> block(std::min(count, block_records) * record);
-  for (std::size_t first = 0; first < count; first += block_records) {
-    const std::size_t records = std::min(block_records, count - first);
+  block.resize(std::min(count, block_records) * record);
+  for (std::size_t done = 0; done < count; done += block_records) {
+    const std::size_t records = std::min(block_records, count - done);
     const std::size_t got = reader.read(block.data(), records * record);
-    if (got != records * record) fail_truncated(file, false, vertex, first + got / record);
+    if (got != records * record) fail_truncated(file, false, vertex, first + done + got / record);
+    const std::size_t at = start + done;
     for (const Column& column : layout.columns) {
-      double* out = column.coordinate >= 0
-                        ? table.positions[first].data() + column.coordinate
-                        : table.attributes[column.attribute].values.data() + first;
+      double* out = column.coordinate >= 0 ? table.positions[at].data() + column.coordinate
+                                           : table.attributes[column.attribute].values.data() + at;
       const std::size_t out_stride = column.coordinate >= 0 ? 3 : 1;
       decode_column(column.type, swap, block.data() + column.offset, record, records, out,
                     out_stride);
     }
-    check_finite(file, table.positions, first, first + records);
+    for (std::size_t i = at; i < at + records; ++i) {
+      check_finite_point(file, table.positions[i], first + (i - start));
+    }
   }
 }
 
@@ -146,25 +156,28 @@ bool parse_value(ScalarType type, std::string_view token, double& value) {
   return parse_double(token, value) && fits_type(type, value);
 }
 
+// Each value takes at least one digit and one separator (the last line may lack its
+// newline); a count beyond that bound is rejected before anything is reserved.
+void check_ascii_count(FileReader& reader, const PlyElement& vertex, const VertexLayout& layout) {
+  const std::uint64_t bound = (reader.remaining() + 1) / (2 * layout.columns.size());
+  if (vertex.count > bound) {
+    fail(reader.path(), "header declares " + count_of(vertex.count, vertex.name) + " but only " +
+                            std::to_string(reader.remaining()) + " bytes follow the header");
+  }
+  check_point_limit(reader.path(), vertex.count);
+}
+
+// Appends vertices [first, first + count) of the body to `table`.
 void read_ascii_vertices(FileReader& reader, const PlyElement& vertex, const VertexLayout& layout,
-                         PointTable& table) {
+                         std::size_t first, std::size_t count, PointTable& table) {
   const fs::path& file = reader.path();
   const std::size_t values = layout.columns.size();
-  // Each value takes at least one digit and one separator (the last line may lack its
-  // newline); a count beyond that bound is rejected before anything is reserved.
-  const std::uint64_t bound = (reader.remaining() + 1) / (2 * values);
-  if (vertex.count > bound) {
-    fail(file, "header declares " + count_of(vertex.count, vertex.name) + " but only " +
-                   std::to_string(reader.remaining()) + " bytes follow the header");
-  }
-  check_point_limit(file, vertex.count);
-  const auto count = static_cast<std::size_t>(vertex.count);
-  const std::size_t reserve = std::min(count, kAsciiReserve);
+  const std::size_t reserve = table.positions.size() + std::min(count, kAsciiReserve);
   table.positions.reserve(reserve);
   for (Attribute& attribute : table.attributes) attribute.values.reserve(reserve);
 
   std::string_view line;
-  for (std::size_t i = 0; i < count; ++i) {
+  for (std::size_t i = first; i < first + count; ++i) {
     if (!next_data_line(reader, line)) fail_truncated(file, true, vertex, i);
     std::string_view rest = line;
     Vec3 position = Vec3::Zero();
@@ -191,8 +204,8 @@ void read_ascii_vertices(FileReader& reader, const PlyElement& vertex, const Ver
                      std::to_string(values) + " values");
     }
     table.positions.push_back(position);
-    check_finite(file, table.positions, i, i + 1, "vertex",
-                 " in line " + std::to_string(reader.line_number()));
+    check_finite_point(file, position, i, "vertex",
+                       " in line " + std::to_string(reader.line_number()));
   }
 }
 
@@ -287,37 +300,96 @@ void warn_about_leftovers(FileReader& reader, bool ascii, const ReadOptions& opt
 
 }  // namespace
 
-PointTable read_ply(const fs::path& file, const ReadOptions& options) {
-  FileReader reader(file);
-  const PlyHeader header = read_ply_header(reader);
-  const auto vertex =
-      std::find_if(header.elements.begin(), header.elements.end(),
-                   [](const PlyElement& element) { return element.name == "vertex"; });
-  if (vertex == header.elements.end()) fail(file, "no vertex element");
+namespace {
 
-  PointTable table;
-  const VertexLayout layout = plan_vertices(file, *vertex, table);
-  const bool ascii = header.encoding == PlyEncoding::Ascii;
-  const bool swap = needs_swap(header.encoding == PlyEncoding::BinaryBigEndian);
-  for (const PlyElement& element : header.elements) {
-    if (&element == &*vertex) {
-      if (ascii) {
-        read_ascii_vertices(reader, element, layout, table);
-      } else {
-        read_binary_vertices(reader, element, layout, swap, table);
-      }
-    } else if (ascii) {
-      skip_ascii_element(reader, element);
+// The vertex element is read in chunks; the elements before it are skipped when the reader
+// opens, those after it when the last vertex has been read.
+class PlyChunkReader final : public PointChunkReader {
+ public:
+  PlyChunkReader(const fs::path& file, const ReadOptions& options)
+      : PointChunkReader(file), options_(options), reader_(file) {
+    header_ = read_ply_header(reader_);
+    const auto vertex =
+        std::find_if(header_.elements.begin(), header_.elements.end(),
+                     [](const PlyElement& element) { return element.name == "vertex"; });
+    if (vertex == header_.elements.end()) fail(file, "no vertex element");
+    vertex_ = static_cast<std::size_t>(vertex - header_.elements.begin());
+    layout_ = plan_vertices(file, *vertex, schema_);
+    ascii_ = header_.encoding == PlyEncoding::Ascii;
+    swap_ = needs_swap(header_.encoding == PlyEncoding::BinaryBigEndian);
+    for (std::size_t e = 0; e < vertex_; ++e) skip(header_.elements[e]);
+    if (ascii_) {
+      check_ascii_count(reader_, *vertex, layout_);
     } else {
-      skip_binary_element(reader, element, swap);
+      check_binary_count(reader_, *vertex, layout_);
+    }
+    // plan_vertices keeps pointers to the property names: they live in header_.
+  }
+
+  std::optional<std::uint64_t> count() const override { return vertices().count; }
+
+ protected:
+  std::size_t append(PointTable& chunk, std::size_t max_points) override {
+    const std::uint64_t left = vertices().count - points_read_;
+    const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(left, max_points));
+    const auto first = static_cast<std::size_t>(points_read_);
+    if (count > 0) {
+      if (ascii_) {
+        read_ascii_vertices(reader_, vertices(), layout_, first, count, chunk);
+      } else {
+        read_binary_vertices(reader_, vertices(), layout_, swap_, first, count, block_, chunk);
+      }
+    }
+    if (points_read_ + count == vertices().count && !finished_) finish();
+    return count;
+  }
+
+ private:
+  const PlyElement& vertices() const { return header_.elements[vertex_]; }
+
+  void skip(const PlyElement& element) {
+    if (ascii_) {
+      skip_ascii_element(reader_, element);
+    } else {
+      skip_binary_element(reader_, element, swap_);
     }
   }
-  warn_about_leftovers(reader, ascii, options);
-  for (const PlyElement& element : header.elements) {
-    if (&element != &*vertex && element.count > 0) {
-      warn(options, file, count_of(element.count, element.name) + " ignored");
+
+  void finish() {
+    finished_ = true;
+    block_ = std::vector<char>();
+    for (std::size_t e = vertex_ + 1; e < header_.elements.size(); ++e) skip(header_.elements[e]);
+    warn_about_leftovers(reader_, ascii_, options_);
+    for (std::size_t e = 0; e < header_.elements.size(); ++e) {
+      const PlyElement& element = header_.elements[e];
+      if (e != vertex_ && element.count > 0) {
+        warn(options_, path_, count_of(element.count, element.name) + " ignored");
+      }
     }
   }
+
+  ReadOptions options_;
+  FileReader reader_;
+  PlyHeader header_;
+  std::size_t vertex_ = 0;
+  VertexLayout layout_;
+  bool ascii_ = false;
+  bool swap_ = false;
+  bool finished_ = false;
+  std::vector<char> block_;
+};
+
+}  // namespace
+
+std::unique_ptr<PointChunkReader> open_ply_reader(const fs::path& file, const ReadOptions& options) {
+  return std::make_unique<PlyChunkReader>(file, options);
+}
+
+PointTable read_ply(const fs::path& file, const ReadOptions& options) {
+  PlyChunkReader reader(file, options);
+  PointTable table = reader.schema();
+  // One chunk of every vertex; the count was checked against the file size when it opened.
+  reader.read(table, static_cast<std::size_t>(std::max<std::uint64_t>(1, *reader.count())));
   return table;
 }
 

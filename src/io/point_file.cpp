@@ -68,4 +68,16 @@ void write_points(const fs::path& file, const PointTable& table, const WriteOpti
   }
 }
 
+std::unique_ptr<PointChunkReader> open_point_reader(const fs::path& file, const ReadOptions& options) {
+  return format_of(file) == Format::Ply ? open_ply_reader(file, options) : open_xyz_reader(file, options);
+}
+
+std::unique_ptr<PointChunkWriter> open_point_writer(const fs::path& file, const PointTable& schema,
+                                                    std::uint64_t count, const WriteOptions& options) {
+  const Format format = format_of(file);
+  if (!options.input.empty()) require_distinct(options.input, file);
+  if (format == Format::Ply) return open_ply_writer(file, schema, count, options.ply_encoding);
+  return open_xyz_writer(file, schema, count);
+}
+
 }  // namespace pointfair::io

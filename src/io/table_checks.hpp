@@ -1,6 +1,7 @@
 #pragma once
 // Internal checks shared by the writers, run before any output file is created.
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <string_view>
 #include <vector>
@@ -11,12 +12,22 @@ namespace pointfair::io::detail {
 
 /// Throws IoError "<file>: ..." if an attribute's size differs from the number of points or
 /// a position is not finite (a file no reader, ours included, would accept).
-void check_table(const std::filesystem::path& file, const PointTable& table);
+/// `first` is the file index of the table's first point (for messages).
+void check_table(const std::filesystem::path& file, const PointTable& table, std::uint64_t first = 0);
+
+/// Throws IoError "<file>: ..." unless `chunk` has the attributes of `schema` (names and
+/// types, in order): a chunk written to a streaming writer.
+void require_schema(const std::filesystem::path& file, const PointTable& schema, const PointTable& chunk);
 
 /// Throws IoError "<file>: <noun> <i> has a non-finite coordinate (nan)<suffix>" for the
 /// first non-finite coordinate among positions[first, last).
 void check_finite(const std::filesystem::path& file, const std::vector<Vec3>& positions,
                   std::size_t first, std::size_t last, std::string_view noun = "vertex",
                   std::string_view suffix = {});
+
+/// Throws IoError "<file>: <noun> <index> has a non-finite coordinate (nan)<suffix>" if
+/// `position` is not finite.
+void check_finite_point(const std::filesystem::path& file, const Vec3& position, std::uint64_t index,
+                        std::string_view noun = "vertex", std::string_view suffix = {});
 
 }  // namespace pointfair::io::detail

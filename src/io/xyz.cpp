@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -167,41 +168,98 @@ void add_row(const FileReader& reader, const Layout& layout,
 
 }  // namespace
 
-PointTable read_xyz(const fs::path& file, const ReadOptions& options) {
-  FileReader reader(file);
-  PointTable table;
-  table.position_type = ScalarType::Float64;
-  std::optional<Layout> layout;
-  std::optional<std::uint64_t> declared_count;
-  bool seen_content = false;
-  std::vector<std::string_view> fields;
-  std::vector<double> values;
-  std::string_view line;
-  while (reader.next_line(line)) {
-    line = trim(line);
-    if (line.empty() || line.front() == '#') continue;
-    split_fields(line, fields);
-    if (!layout) {
-      if (!seen_content) {
-        seen_content = true;
-        declared_count = point_count(fields);
-        if (declared_count) continue;
+namespace {
+
+// The layout is settled by the first line that is not a comment, a blank or a point count;
+// the reader opens by reading up to it (a first data row is kept for the first chunk).
+class XyzChunkReader final : public PointChunkReader {
+ public:
+  XyzChunkReader(const fs::path& file, const ReadOptions& options)
+      : PointChunkReader(file), options_(options), reader_(file) {
+    schema_.position_type = ScalarType::Float64;
+    std::string_view line;
+    while (!layout_ && next_content_line(line)) {
+      if (!seen_content_) {
+        seen_content_ = true;
+        declared_count_ = point_count(fields_);
+        if (declared_count_) continue;
       }
-      if (!all_numbers(fields)) {
-        layout = layout_from_header(reader, fields, table);
+      if (!all_numbers(fields_)) {
+        layout_ = layout_from_header(reader_, fields_, schema_);
         continue;
       }
-      layout = layout_without_header(reader, fields.size(), table);
+      layout_ = layout_without_header(reader_, fields_.size(), schema_);
+      pending_row_ = true;  // fields_ holds the first row
     }
-    add_row(reader, *layout, fields, values, table);
+    if (!seen_content_)
+      fail(file, reader_.size() == 0 ? "empty file" : "no points (only comments or blank lines)");
+    if (!layout_) layout_.emplace();  // only a point count: no columns, no points
   }
-  if (!seen_content)
-    fail(file, reader.size() == 0 ? "empty file" : "no points (only comments or blank lines)");
-  if (declared_count && *declared_count != table.size()) {
-    warn(options, file,
-         "first line declares " + std::to_string(*declared_count) + " points, the file has " +
-             std::to_string(table.size()));
+
+  std::optional<std::uint64_t> count() const override { return std::nullopt; }
+
+ protected:
+  std::size_t append(PointTable& chunk, std::size_t max_points) override {
+    std::size_t added = 0;
+    if (pending_row_ && max_points > 0) {
+      pending_row_ = false;
+      add_row(reader_, *layout_, fields_, values_, chunk);
+      ++added;
+    }
+    std::string_view line;
+    while (added < max_points && !finished_) {
+      if (!next_content_line(line)) {
+        finish(points_read_ + added);
+        break;
+      }
+      add_row(reader_, *layout_, fields_, values_, chunk);
+      ++added;
+    }
+    return added;
   }
+
+ private:
+  // The next line that is neither blank nor a comment, split into fields_.
+  bool next_content_line(std::string_view& line) {
+    while (reader_.next_line(line)) {
+      line = trim(line);
+      if (line.empty() || line.front() == '#') continue;
+      split_fields(line, fields_);
+      return true;
+    }
+    return false;
+  }
+
+  void finish(std::uint64_t total) {
+    finished_ = true;
+    if (declared_count_ && *declared_count_ != total) {
+      warn(options_, path_,
+           "first line declares " + std::to_string(*declared_count_) + " points, the file has " +
+               std::to_string(total));
+    }
+  }
+
+  ReadOptions options_;
+  FileReader reader_;
+  std::optional<Layout> layout_;
+  std::optional<std::uint64_t> declared_count_;
+  bool seen_content_ = false;
+  bool pending_row_ = false;
+  bool finished_ = false;
+  std::vector<std::string_view> fields_;
+  std::vector<double> values_;
+};
+
+}  // namespace
+
+std::unique_ptr<PointChunkReader> open_xyz_reader(const fs::path& file, const ReadOptions& options) {
+  return std::make_unique<XyzChunkReader>(file, options);
+}
+
+PointTable read_xyz(const fs::path& file, const ReadOptions& options) {
+  XyzChunkReader reader(file, options);
+  PointTable table = reader.schema();
+  reader.read(table, static_cast<std::size_t>(-1));
   return table;
 }
 
@@ -228,42 +286,90 @@ void check_xyz_names(const fs::path& file, const PointTable& table) {
 
 }  // namespace
 
+namespace {
+
+class XyzChunkWriter final : public PointChunkWriter {
+ public:
+  XyzChunkWriter(const fs::path& file, const PointTable& schema, std::uint64_t count)
+      : path_(file), count_(count) {
+    check_xyz_names(file, schema);
+    for (const Attribute& attribute : schema.attributes) {
+      schema_.attributes.push_back(Attribute{attribute.name, attribute.type, {}});
+    }
+    separator_ = lower(file.extension().string()) == ".csv" ? ',' : ' ';
+    file_.emplace(file);
+    text_.reserve(kTextFlushBytes + 4096);
+    if (!schema_.attributes.empty()) {
+      text_ += "x";
+      text_ += separator_;
+      text_ += "y";
+      text_ += separator_;
+      text_ += "z";
+      for (const Attribute& attribute : schema_.attributes) {
+        text_ += separator_;
+        text_ += attribute.name;
+      }
+      text_ += '\n';
+    }
+  }
+
+  void write(const PointTable& chunk) override {
+    require_schema(path_, schema_, chunk);
+    check_table(path_, chunk, points_written_);
+    if (chunk.size() > count_ - points_written_) {
+      fail(path_, "more points written than the " + std::to_string(count_) + " declared");
+    }
+    for (std::size_t i = 0; i < chunk.size(); ++i) {
+      for (int c = 0; c < 3; ++c) {
+        if (c > 0) text_ += separator_;
+        append_number(text_, chunk.positions[i][c]);
+      }
+      for (const Attribute& attribute : chunk.attributes) {
+        text_ += separator_;
+        append_number(text_, attribute.values[i]);
+      }
+      text_ += '\n';
+      if (text_.size() >= kTextFlushBytes) {
+        file_->sink().write(text_);
+        text_.clear();
+      }
+    }
+    points_written_ += chunk.size();
+  }
+
+  void finish() override {
+    if (points_written_ != count_) {
+      fail(path_, "only " + std::to_string(points_written_) + " of the " + std::to_string(count_) +
+                      " declared points were written");
+    }
+    file_->sink().write(text_);
+    text_.clear();
+    file_->commit();
+  }
+
+ private:
+  fs::path path_;
+  PointTable schema_;
+  std::uint64_t count_ = 0;
+  char separator_ = ' ';
+  std::string text_;
+  std::optional<AtomicFile> file_;
+};
+
+}  // namespace
+
+std::unique_ptr<PointChunkWriter> open_xyz_writer(const fs::path& file, const PointTable& schema,
+                                                  std::uint64_t count) {
+  return std::make_unique<XyzChunkWriter>(file, schema, count);
+}
+
 void write_xyz(const fs::path& file, const PointTable& table) {
+  // Checked before the output file is created.
   check_table(file, table);
   check_xyz_names(file, table);
-  const char separator = lower(file.extension().string()) == ".csv" ? ',' : ' ';
-  write_file_atomically(file, [&](FileSink& sink) {
-    std::string text;
-    text.reserve(kTextFlushBytes + 4096);
-    if (!table.attributes.empty()) {
-      text += "x";
-      text += separator;
-      text += "y";
-      text += separator;
-      text += "z";
-      for (const Attribute& attribute : table.attributes) {
-        text += separator;
-        text += attribute.name;
-      }
-      text += '\n';
-    }
-    for (std::size_t i = 0; i < table.size(); ++i) {
-      for (int c = 0; c < 3; ++c) {
-        if (c > 0) text += separator;
-        append_number(text, table.positions[i][c]);
-      }
-      for (const Attribute& attribute : table.attributes) {
-        text += separator;
-        append_number(text, attribute.values[i]);
-      }
-      text += '\n';
-      if (text.size() >= kTextFlushBytes) {
-        sink.write(text);
-        text.clear();
-      }
-    }
-    sink.write(text);
-  });
+  XyzChunkWriter writer(file, table, table.size());
+  writer.write(table);
+  writer.finish();
 }
 
 }  // namespace pointfair::io

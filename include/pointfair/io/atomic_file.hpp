@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string_view>
 
 namespace pointfair::io {
@@ -25,6 +26,34 @@ class FileSink {
  private:
   std::FILE* file_;
   std::filesystem::path name_;
+};
+
+/// An output file being written under a temporary name in the target's directory
+/// (".<name>.tmp-<pid>-<random>"): commit() flushes, syncs and renames it onto the target;
+/// destroying it uncommitted removes the temporary and leaves an existing target untouched.
+/// An existing target's permission bits are kept.
+class AtomicFile {
+ public:
+  /// Creates the temporary. Throws IoError "<target>: <problem>" (e.g. "cannot create file:
+  /// No such file or directory", "cannot write: Is a directory").
+  explicit AtomicFile(std::filesystem::path target);
+  ~AtomicFile();
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  /// Where the body goes; errors name the target.
+  FileSink& sink() { return *sink_; }
+  /// Flushes, syncs, closes and renames. Throws IoError "<target>: write failed: <reason>"
+  /// (the temporary is removed) or "cannot replace file: <reason>".
+  void commit();
+
+ private:
+  void abandon();
+
+  std::filesystem::path target_;
+  std::filesystem::path temporary_;
+  std::FILE* file_ = nullptr;
+  std::optional<FileSink> sink_;
 };
 
 /// Writes `target` by calling `write_body` on a new temporary file in the same directory

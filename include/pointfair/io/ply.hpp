@@ -1,7 +1,10 @@
 #pragma once
 // Stanford PLY (format 1.0) point files.
+#include <cstdint>
 #include <filesystem>
+#include <memory>
 
+#include "pointfair/io/point_chunks.hpp"
 #include "pointfair/io/point_table.hpp"
 
 namespace pointfair::io {
@@ -18,6 +21,11 @@ enum class PlyEncoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
 /// against the file size before anything is allocated.
 PointTable read_ply(const std::filesystem::path& file, const ReadOptions& options = {});
 
+/// read_ply a chunk at a time: the header (and any element before the vertices) is read
+/// when the reader opens; count() is the header's vertex count. Same errors and warnings.
+std::unique_ptr<PointChunkReader> open_ply_reader(const std::filesystem::path& file,
+                                                  const ReadOptions& options = {});
+
 /// Writes `table` atomically (see write_file_atomically) as a PLY file: x, y, z stored as
 /// float when table.position_type is Float32 and as double otherwise, then every attribute
 /// in order in its own type (integers rounded and saturated to the type's range). ASCII
@@ -27,5 +35,13 @@ PointTable read_ply(const std::filesystem::path& file, const ReadOptions& option
 /// (empty, whitespace, duplicate, x/y/z) or a write failure.
 void write_ply(const std::filesystem::path& file, const PointTable& table,
                PlyEncoding encoding = PlyEncoding::BinaryLittleEndian);
+
+/// write_ply a chunk at a time: the header declares `count` points, of the position type
+/// and attributes of `schema` (its values are ignored). Names are checked when it opens;
+/// each chunk's positions when it is written (indices in errors count from the file's first
+/// point).
+std::unique_ptr<PointChunkWriter> open_ply_writer(const std::filesystem::path& file,
+                                                  const PointTable& schema, std::uint64_t count,
+                                                  PlyEncoding encoding = PlyEncoding::BinaryLittleEndian);
 
 }  // namespace pointfair::io

@@ -1,8 +1,11 @@
 #pragma once
 // Point files of any supported format, chosen by the file extension.
+#include <cstdint>
 #include <filesystem>
+#include <memory>
 
 #include "pointfair/io/ply.hpp"
+#include "pointfair/io/point_chunks.hpp"
 #include "pointfair/io/point_table.hpp"
 
 namespace pointfair::io {
@@ -30,5 +33,17 @@ PointTable read_points(const std::filesystem::path& file, const ReadOptions& opt
 /// `file` is options.input, or any error of the format's writer.
 void write_points(const std::filesystem::path& file, const PointTable& table,
                   const WriteOptions& options = {});
+
+/// The chunk reader of `file`'s format (open_ply_reader or open_xyz_reader), by extension as
+/// read_points. Throws IoError as read_points.
+std::unique_ptr<PointChunkReader> open_point_reader(const std::filesystem::path& file,
+                                                    const ReadOptions& options = {});
+
+/// The chunk writer of `file`'s format (open_ply_writer or open_xyz_writer), by extension as
+/// write_points, for `count` points with the attributes of `schema`. Throws IoError as
+/// write_points.
+std::unique_ptr<PointChunkWriter> open_point_writer(const std::filesystem::path& file,
+                                                    const PointTable& schema, std::uint64_t count,
+                                                    const WriteOptions& options = {});
 
 }  // namespace pointfair::io

@@ -1,7 +1,10 @@
 #pragma once
 // Text point files (.xyz, .txt, .pts, .csv): one point per line.
+#include <cstdint>
 #include <filesystem>
+#include <memory>
 
+#include "pointfair/io/point_chunks.hpp"
 #include "pointfair/io/point_table.hpp"
 
 namespace pointfair::io {
@@ -20,6 +23,12 @@ namespace pointfair::io {
 /// y or z.
 PointTable read_xyz(const std::filesystem::path& file, const ReadOptions& options = {});
 
+/// read_xyz a chunk at a time: the reader opens by reading up to the first row (the schema
+/// depends on it); count() is nullopt (a text file declares none it must keep). Same errors
+/// and warnings.
+std::unique_ptr<PointChunkReader> open_xyz_reader(const std::filesystem::path& file,
+                                                  const ReadOptions& options = {});
+
 /// Writes `table` atomically as text: a header line "x y z <attribute names...>" when there
 /// are attributes, then one line per point with the shortest decimal text that reads back
 /// as the same double. Values are separated by ',' for a .csv file and by ' ' otherwise.
@@ -27,5 +36,10 @@ PointTable read_xyz(const std::filesystem::path& file, const ReadOptions& option
 /// differs from the number of points, a name that cannot be read back from the header
 /// (empty, containing a separator or '#', duplicate, or x/y/z in any case) or a write failure.
 void write_xyz(const std::filesystem::path& file, const PointTable& table);
+
+/// write_xyz a chunk at a time, with the attributes of `schema` (its values are ignored).
+/// Names are checked when it opens; `count` is only checked by finish().
+std::unique_ptr<PointChunkWriter> open_xyz_writer(const std::filesystem::path& file,
+                                                  const PointTable& schema, std::uint64_t count);
 
 }  // namespace pointfair::io
