@@ -9,6 +9,7 @@
 
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/shapes.hpp"
+#include "pointfair/smooth.hpp"
 #include "pointfair/tiles/container.hpp"
 
 namespace pointfair::test {
@@ -41,6 +42,39 @@ inline io::PointTable noisy_cube(std::size_t count, std::uint64_t seed, double s
   t.attributes.push_back({"intensity", io::ScalarType::UInt16, intensity});
   t.attributes.push_back({"label", io::ScalarType::Int8, label});
   return t;
+}
+
+/// The reference of the out-of-core tests: smooth() and compute_attributes() in memory.
+struct InCore {
+  std::vector<Vec3> positions;
+  PointAttributes attributes;
+  SmoothReport report;
+};
+
+inline InCore run_in_core(const io::PointTable& table, const SmoothParams& params) {
+  InCore r;
+  r.positions = table.positions;
+  r.report = smooth(r.positions, params);
+  r.attributes = compute_attributes(r.positions, r.report.neighborhoods, params.flow, r.report.lambda);
+  return r;
+}
+
+inline void expect_identical(const std::filesystem::path& run, const InCore& ref) {
+  const io::PointTable out = tiles::read_container(run);
+  ASSERT_EQ(out.size(), ref.positions.size());
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < out.size(); ++i) differ += out.positions[i] != ref.positions[i];
+  EXPECT_EQ(differ, 0u) << "positions differ from the in-core run";
+  const PointAttributes a = tiles::read_run_attributes(run);
+  std::size_t bad = 0;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    bad += a.normal[i] != ref.attributes.normal[i] || a.d1[i] != ref.attributes.d1[i] ||
+           a.d2[i] != ref.attributes.d2[i] || a.k1[i] != ref.attributes.k1[i] || a.k2[i] != ref.attributes.k2[i] ||
+           a.mean_curvature[i] != ref.attributes.mean_curvature[i] ||
+           a.laplacian_norm[i] != ref.attributes.laplacian_norm[i] || a.feature[i] != ref.attributes.feature[i];
+  }
+  EXPECT_EQ(bad, 0u) << "attributes differ from the in-core run";
+  EXPECT_EQ(a.degenerate, ref.attributes.degenerate);
 }
 
 /// Import options with these tiles and chunk rows.

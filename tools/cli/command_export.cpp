@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "container_export.hpp"
 #include "out_of_core.hpp"
 #include "run_support.hpp"
 #include "pointfair/tiles/container.hpp"
@@ -13,6 +14,7 @@ int run_export(const Args& args) {
   std::string input, output;
   OutputOptions out;
   bool tile_order = false, input_positions = false;
+  std::uint64_t budget = std::uint64_t{256} << 20;
   ArgumentParser parser("pointfair export",
                         "Writes the points of an HDF5 scan container to a point file, in the input's "
                         "point order. For a container holding a finished smoothing run, the smoothed "
@@ -23,24 +25,20 @@ int run_export(const Args& args) {
               [&] { tile_order = true; });
   parser.flag("input-positions", "Write the input positions even when the container holds a run.",
               [&] { input_positions = true; });
+  parser.value("memory-budget", "SIZE",
+               "Memory for points held at a time (e.g. 256M, 2G); the cloud streams through. Default 256M.",
+               [&](std::string_view v) { budget = parse_size(v, "--memory-budget"); });
   add_output_options(parser, out, true);
   if (!parser.parse(args)) return 0;
   if (!is_container_path(input)) throw UsageError("pointfair export: IN must be a .h5 file, got '" + input + "'");
-  tiles::ReadContainerOptions options;
+  ContainerExport options;
   options.original_order = !tile_order;
-  options.result_positions = !input_positions;
-  io::PointTable table = tiles::read_container(input, options);
-  bool has_results = false;
-  {
-    const auto f = tiles::h5::File::open(input, false);
-    has_results = !input_positions && tiles::has_finished_run(f) && f.exists("/run/attributes/k1");
-  }
-  if (has_results && (out.attributes || out.colour_by != ColourBy::None))
-    add_result_columns(table, tiles::read_run_attributes(input, !tile_order), out, out.attributes);
-  write_output(output, table, out, input);
+  options.input_positions = input_positions;
+  options.memory_budget = budget;
+  const ExportSummary summary = export_container(input, output, out, options, input);
   if (!out.quiet)
-    std::fprintf(stderr, "export: %zu points%s -> %s\n", table.size(),
-                 has_results ? " (smoothed)" : "", output.c_str());
+    std::fprintf(stderr, "export: %llu points%s -> %s\n", static_cast<unsigned long long>(summary.points),
+                 summary.has_results ? " (smoothed)" : "", output.c_str());
   return 0;
 }
 

@@ -10,6 +10,7 @@
 #include "run_support.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/import.hpp"
 #include "pointfair/version.hpp"
 
 namespace pointfair::cli {
@@ -60,22 +61,31 @@ int run_import(const Args& args) {
   io::require_distinct(input, output);
 
   const auto t0 = std::chrono::steady_clock::now();
-  const io::PointTable table = read_input(input, quiet);
   options.tiling.max_tile_points = tile_points > 0 ? tile_points : tile_points_for_budget(budget, 16);
   options.tiling.cell_size = cell_size;
   options.source_name = std::filesystem::path(input).filename().string();
   options.source_size = std::filesystem::file_size(input);
-  tiles::write_container(output, table, options);
+  // Streams the file (three passes) within the budget: see tiles/import.hpp.
+  tiles::StreamImportOptions stream;
+  stream.container = options;
+  stream.memory_budget = budget;
+  stream.read.on_warning = [quiet](const std::string& message) {
+    if (!quiet) std::fprintf(stderr, "warning: %s\n", message.c_str());
+  };
+  const tiles::StreamImportReport report = tiles::import_points(input, output, stream);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const tiles::TileTable tiles = tiles::read_tile_table(tiles::h5::File::open(output, false));
   if (!quiet)
-    std::fprintf(stderr, "import: %zu points, %zu attributes, %zu tiles in %.2f s -> %s\n", table.size(),
-                 table.attributes.size(), tiles.size(), seconds, output.c_str());
+    std::fprintf(stderr, "import: %llu points, %zu attributes, %zu tiles in %.2f s (import memory %.1f MiB of %.1f MiB) -> %s\n",
+                 static_cast<unsigned long long>(report.points), report.attributes, report.tiles, seconds,
+                 static_cast<double>(report.peak_accounted_bytes) / (1 << 20), static_cast<double>(budget) / (1 << 20),
+                 output.c_str());
   if (json) {
     JsonObject j;
     j.add("command", "import").add("version", version()).add("input", input).add("output", output);
-    j.add("points", table.size()).add("attributes", table.attributes.size()).add("tiles", tiles.size());
+    j.add("points", static_cast<std::size_t>(report.points)).add("attributes", report.attributes).add("tiles", report.tiles);
     j.add("max_tile_points", static_cast<std::size_t>(options.tiling.max_tile_points)).add("seconds", seconds);
+    j.add("memory_budget_bytes", static_cast<std::size_t>(budget));
+    j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
     std::cout << j.str() << std::endl;
   }
   return 0;

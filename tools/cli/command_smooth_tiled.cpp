@@ -1,10 +1,12 @@
 // pointfair smooth on HDF5 containers, or with --memory-budget: the out-of-core run.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
 
 #include "commands.hpp"
+#include "container_export.hpp"
 #include "interrupt.hpp"
 #include "out_of_core.hpp"
 #include "progress.hpp"
@@ -14,6 +16,7 @@
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
 #include "pointfair/version.hpp"
 
@@ -85,18 +88,23 @@ int run_smooth_out_of_core(const Args& args) {
   fs::path run_input = input;
   fs::path imported;
   if (!container_in) {
-    io::PointTable table = read_input(input, output.quiet);
-    if (!container_out && in_core_bytes(table.size(), params.neighbors.k) <= ooc.memory_budget && !ooc.resume) {
-      table = io::PointTable{};
+    // The PLY header's count, or a counting pass over a text file: the cloud is not loaded.
+    const std::uint64_t points = count_points(input);
+    if (!container_out && in_core_bytes(points, params.neighbors.k) <= ooc.memory_budget && !ooc.resume) {
       return run_smooth(without_budget(args));
     }
     io::require_distinct(input, output_path);
     imported = fs::path(output_path).string() + ".input.h5";
-    tiles::ImportOptions import;
-    import.tiling.max_tile_points = tile_points_for_budget(ooc.memory_budget, params.neighbors.k);
-    import.source_name = fs::path(input).filename().string();
-    import.source_size = fs::file_size(input);
-    if (!(ooc.resume && fs::exists(imported))) tiles::write_container(imported, table, import);
+    tiles::StreamImportOptions import;
+    import.container.tiling.max_tile_points = tile_points_for_budget(ooc.memory_budget, params.neighbors.k);
+    import.container.source_name = fs::path(input).filename().string();
+    import.container.source_size = fs::file_size(input);
+    // The import streams the file within the budget (at least its minimum of 16 MiB).
+    import.memory_budget = std::max(ooc.memory_budget, kMinImportBudget);
+    import.read.on_warning = [quiet = output.quiet](const std::string& message) {
+      if (!quiet) std::fprintf(stderr, "warning: %s\n", message.c_str());
+    };
+    if (!(ooc.resume && fs::exists(imported))) tiles::import_points(input, imported, import);
     run_input = imported;
   }
   (void)budget_given;
@@ -130,10 +138,9 @@ int run_smooth_out_of_core(const Args& args) {
   double seconds_write = 0.0;
   if (!container_out) {
     const auto t0 = std::chrono::steady_clock::now();
-    io::PointTable table = tiles::read_container(run_output);
-    if (output.attributes || output.colour_by != ColourBy::None)
-      add_result_columns(table, tiles::read_run_attributes(run_output), output, output.attributes);
-    write_output(output_path, table, output, input);
+    ContainerExport exported;
+    exported.memory_budget = ooc.memory_budget;
+    export_container(run_output, output_path, output, exported, input);
     remove_quietly(run_output);
     if (!imported.empty()) remove_quietly(imported);
     seconds_write = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "arguments.hpp"
+#include "pointfair/io/point_file.hpp"
 
 namespace pointfair::cli {
 
@@ -44,6 +45,15 @@ std::uint64_t tile_points_for_budget(std::uint64_t budget, int k) {
   const std::uint64_t reserve = std::uint64_t{16} << 20;  // the lambda sample and tables
   const std::uint64_t usable = budget > 2 * reserve ? budget - reserve : budget / 2;
   return std::max<std::uint64_t>(64, usable / bytes_per_tile_point(k));
+}
+
+std::uint64_t count_points(const std::filesystem::path& file) {
+  const auto reader = io::open_point_reader(file);
+  if (reader->count()) return *reader->count();
+  io::PointTable chunk;
+  while (reader->read(chunk, 1u << 16) > 0) {
+  }
+  return reader->points_read();
 }
 
 std::uint64_t in_core_bytes(std::uint64_t points, int k) {

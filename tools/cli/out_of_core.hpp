@@ -15,6 +15,13 @@ std::uint64_t parse_size(std::string_view text, std::string_view what);
 /// Most points per tile so that a run with k neighbours stays within `budget` bytes.
 std::uint64_t tile_points_for_budget(std::uint64_t budget, int k);
 
+/// Number of points of a point file: the PLY header's count, or a pass over a text file.
+/// Throws IoError as the file's reader.
+std::uint64_t count_points(const std::filesystem::path& file);
+
+/// The least memory budget the streaming import accepts (tiles::import_points).
+inline constexpr std::uint64_t kMinImportBudget = std::uint64_t{16} << 20;
+
 /// Bytes an in-core smooth of `points` points with k neighbours needs, roughly.
 std::uint64_t in_core_bytes(std::uint64_t points, int k);
 
