@@ -156,8 +156,7 @@ struct Column {
   bool wide = false;  // a 64-bit integer, exact only up to 2^53
 };
 
-void read_points_into(FileReader& reader, const LasHeader& h, const std::vector<Column>& columns,
-                      const ReadOptions& options, PointTable& table) {
+void check_point_count(FileReader& reader, const LasHeader& h) {
   const fs::path& file = reader.path();
   const std::size_t record = h.record_length;
   const std::uint64_t available = reader.remaining() / record;
@@ -169,30 +168,39 @@ void read_points_into(FileReader& reader, const LasHeader& h, const std::vector<
     fail(file, std::to_string(h.point_count) + " points exceed the limit of " +
                    std::to_string(std::numeric_limits<Index>::max()) + " points per file");
   }
-  const auto count = static_cast<std::size_t>(h.point_count);
-  table.positions.resize(count);
-  for (Attribute& attribute : table.attributes) attribute.values.resize(count);
-  std::vector<bool> rounded(columns.size(), false);
+}
+
+// Appends records [first, first + count) to `table`, a block at a time. `rounded` (one flag
+// per column) keeps the 2^53 warning to one per column and file.
+void read_points_into(FileReader& reader, const LasHeader& h, const std::vector<Column>& columns,
+                      const ReadOptions& options, std::size_t first, std::size_t count,
+                      std::vector<bool>& rounded, std::vector<char>& block, PointTable& table) {
+  const fs::path& file = reader.path();
+  const std::size_t record = h.record_length;
+  const std::size_t start = table.positions.size();
+  table.positions.resize(start + count);
+  for (Attribute& attribute : table.attributes) attribute.values.resize(start + count);
 
   const std::size_t block_records = std::max<std::size_t>(1, kBlockBytes / record);
-  std::vector<char> block(std::min(count, block_records) * record);
-  for (std::size_t first = 0; first < count; first += block_records) {
-    const std::size_t records = std::min(block_records, count - first);
+  block.resize(std::min(count, block_records) * record);
+  for (std::size_t done = 0; done < count; done += block_records) {
+    const std::size_t records = std::min(block_records, count - done);
+    const std::size_t at = start + done;
     if (reader.read(block.data(), records * record) != records * record) {
       fail(file, "truncated point data");
     }
     for (std::size_t r = 0; r < records; ++r) {
       const char* bytes = block.data() + r * record;
-      Vec3& p = table.positions[first + r];
+      Vec3& p = table.positions[at + r];
       for (int a = 0; a < 3; ++a) {
         const double stored = load_le(LasStorage::I32, bytes + 4 * a);
         p[a] = h.offset[a] + h.scale[a] * stored;
       }
+      check_finite_point(file, p, first + done + r, "point");
     }
-    check_finite(file, table.positions, first, first + records, "point");
     for (std::size_t c = 0; c < columns.size(); ++c) {
       const Column& column = columns[c];
-      double* out = table.attributes[column.attribute].values.data() + first;
+      double* out = table.attributes[column.attribute].values.data() + at;
       const char* bytes = block.data() + column.offset;
       if (column.bits > 0) {
         const unsigned mask = (1u << column.bits) - 1;
@@ -224,43 +232,94 @@ bool has_laz_extension(const fs::path& file) {
 
 }  // namespace
 
+namespace {
+
+// The header and VLRs are read when the reader opens, the point records in chunks, the EVLRs
+// after the last record (schema().las holds them from then on).
+class LasChunkReader final : public PointChunkReader {
+ public:
+  LasChunkReader(const fs::path& file, const ReadOptions& options)
+      : PointChunkReader(file), options_(options), reader_(init(file)) {
+    h_ = read_header(reader_);
+    LasMetadata metadata;
+    metadata.version_minor = h_.version_minor;
+    metadata.point_format = h_.point_format;
+    metadata.file_source_id = h_.file_source_id;
+    metadata.global_encoding = h_.global_encoding;
+    metadata.project_guid = h_.project_guid;
+    metadata.system_identifier = h_.system_identifier;
+    read_vlrs(reader_, h_, metadata);
+    skip_to(reader_, h_.point_data_offset, "the point data");
+
+    schema_.position_type = ScalarType::Float64;
+    schema_.quantization = PositionQuantization{Vec3(h_.scale[0], h_.scale[1], h_.scale[2]),
+                                                Vec3(h_.offset[0], h_.offset[1], h_.offset[2])};
+    for (const LasField& field : las_fields(h_.point_format)) {
+      columns_.push_back({field.storage, field.offset, field.shift, field.bits, schema_.attributes.size(),
+                          field.storage == LasStorage::U64 || field.storage == LasStorage::I64});
+      schema_.attributes.push_back(Attribute{std::string(field.name), field.type, {}});
+    }
+    const std::size_t base = point_record_size(h_.point_format);
+    for (const ExtraColumn& extra :
+         extra_columns(file, h_.point_format, metadata.extra_bytes_descriptors, h_.record_length - base)) {
+      columns_.push_back({extra.storage, base + extra.offset, 0, 0, schema_.attributes.size(),
+                          extra.storage == LasStorage::U64 || extra.storage == LasStorage::I64});
+      schema_.attributes.push_back(Attribute{extra.name, extra.type, {}});
+    }
+    schema_.las = std::move(metadata);
+    rounded_.assign(columns_.size(), false);
+    check_point_count(reader_, h_);
+  }
+
+  std::optional<std::uint64_t> count() const override { return h_.point_count; }
+
+ protected:
+  std::size_t append(PointTable& chunk, std::size_t max_points) override {
+    const std::uint64_t left = h_.point_count - points_read_;
+    const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(left, max_points));
+    if (count > 0) {
+      read_points_into(reader_, h_, columns_, options_, static_cast<std::size_t>(points_read_), count, rounded_,
+                       block_, chunk);
+    }
+    if (points_read_ + count == h_.point_count && !finished_) {
+      finished_ = true;
+      block_ = std::vector<char>();
+      if ((h_.global_encoding & 2) != 0) {
+        warn(options_, path_, "waveform data packets stored inside the file are not kept");
+      }
+      read_evlrs(reader_, h_, *schema_.las);
+    }
+    chunk.quantization = schema_.quantization;
+    chunk.las = schema_.las;
+    return count;
+  }
+
+ private:
+  static const fs::path& init(const fs::path& file) {
+    if (has_laz_extension(file)) fail_laz(file);
+    return file;
+  }
+
+  ReadOptions options_;
+  FileReader reader_;
+  LasHeader h_;
+  std::vector<Column> columns_;
+  std::vector<bool> rounded_;
+  std::vector<char> block_;
+  bool finished_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<PointChunkReader> open_las_reader(const fs::path& file, const ReadOptions& options) {
+  return std::make_unique<LasChunkReader>(file, options);
+}
+
 PointTable read_las(const fs::path& file, const ReadOptions& options) {
-  if (has_laz_extension(file)) fail_laz(file);
-  FileReader reader(file);
-  const LasHeader h = read_header(reader);
-
-  LasMetadata metadata;
-  metadata.version_minor = h.version_minor;
-  metadata.point_format = h.point_format;
-  metadata.file_source_id = h.file_source_id;
-  metadata.global_encoding = h.global_encoding;
-  metadata.project_guid = h.project_guid;
-  metadata.system_identifier = h.system_identifier;
-  read_vlrs(reader, h, metadata);
-  skip_to(reader, h.point_data_offset, "the point data");
-
-  PointTable table;
-  table.position_type = ScalarType::Float64;
-  table.quantization = PositionQuantization{Vec3(h.scale[0], h.scale[1], h.scale[2]),
-                                            Vec3(h.offset[0], h.offset[1], h.offset[2])};
-  std::vector<Column> columns;
-  for (const LasField& field : las_fields(h.point_format)) {
-    columns.push_back({field.storage, field.offset, field.shift, field.bits, table.attributes.size(),
-                       field.storage == LasStorage::U64 || field.storage == LasStorage::I64});
-    table.attributes.push_back(Attribute{std::string(field.name), field.type, {}});
-  }
-  const std::size_t base = point_record_size(h.point_format);
-  for (const ExtraColumn& extra : extra_columns(file, h.point_format, metadata.extra_bytes_descriptors, h.record_length - base)) {
-    columns.push_back({extra.storage, base + extra.offset, 0, 0, table.attributes.size(),
-                       extra.storage == LasStorage::U64 || extra.storage == LasStorage::I64});
-    table.attributes.push_back(Attribute{extra.name, extra.type, {}});
-  }
-  read_points_into(reader, h, columns, options, table);
-  if ((h.global_encoding & 2) != 0) {
-    warn(options, file, "waveform data packets stored inside the file are not kept");
-  }
-  read_evlrs(reader, h, metadata);
-  table.las = std::move(metadata);
+  LasChunkReader reader(file, options);
+  PointTable table = reader.schema();
+  reader.read(table, static_cast<std::size_t>(std::max<std::uint64_t>(1, *reader.count())));
+  table.las = reader.schema().las;  // with the EVLRs read after the points
   return table;
 }
 

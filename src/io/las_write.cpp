@@ -4,6 +4,7 @@
 #include <cmath>
 #include <ctime>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -299,6 +300,52 @@ void write_las(const fs::path& file, const PointTable& table) {
     }
     for (const LasRecord& evlr : plan.evlrs) write_record(sink, evlr, true);
   });
+}
+
+namespace {
+
+class LasBufferedWriter final : public PointChunkWriter {
+ public:
+  LasBufferedWriter(const fs::path& file, const PointTable& schema, std::uint64_t count)
+      : path_(file), count_(count) {
+    table_.position_type = schema.position_type;
+    table_.quantization = schema.quantization;
+    table_.las = schema.las;
+    for (const Attribute& attribute : schema.attributes) table_.attributes.push_back({attribute.name, attribute.type, {}});
+  }
+
+  void write(const PointTable& chunk) override {
+    require_schema(path_, table_, chunk);
+    check_table(path_, chunk, points_written_);
+    if (chunk.size() > count_ - points_written_) {
+      fail(path_, "more points written than the " + std::to_string(count_) + " declared");
+    }
+    table_.positions.insert(table_.positions.end(), chunk.positions.begin(), chunk.positions.end());
+    for (std::size_t a = 0; a < chunk.attributes.size(); ++a) {
+      auto& to = table_.attributes[a].values;
+      to.insert(to.end(), chunk.attributes[a].values.begin(), chunk.attributes[a].values.end());
+    }
+    points_written_ += chunk.size();
+  }
+
+  void finish() override {
+    if (points_written_ != count_) {
+      fail(path_, "only " + std::to_string(points_written_) + " of the " + std::to_string(count_) +
+                      " declared points were written");
+    }
+    write_las(path_, table_);
+  }
+
+ private:
+  fs::path path_;
+  std::uint64_t count_ = 0;
+  PointTable table_;
+};
+
+}  // namespace
+
+std::unique_ptr<PointChunkWriter> open_las_writer(const fs::path& file, const PointTable& schema, std::uint64_t count) {
+  return std::make_unique<LasBufferedWriter>(file, schema, count);
 }
 
 }  // namespace pointfair::io

@@ -69,7 +69,12 @@ void write_points(const fs::path& file, const PointTable& table, const WriteOpti
 }
 
 std::unique_ptr<PointChunkReader> open_point_reader(const fs::path& file, const ReadOptions& options) {
-  return format_of(file) == Format::Ply ? open_ply_reader(file, options) : open_xyz_reader(file, options);
+  switch (format_of(file)) {
+    case Format::Ply: return open_ply_reader(file, options);
+    case Format::Las: return open_las_reader(file, options);
+    case Format::Text: break;
+  }
+  return open_xyz_reader(file, options);
 }
 
 std::unique_ptr<PointChunkWriter> open_point_writer(const fs::path& file, const PointTable& schema,
@@ -77,6 +82,10 @@ std::unique_ptr<PointChunkWriter> open_point_writer(const fs::path& file, const 
   const Format format = format_of(file);
   if (!options.input.empty()) require_distinct(options.input, file);
   if (format == Format::Ply) return open_ply_writer(file, schema, count, options.ply_encoding);
+  if (format == Format::Las) {
+    if (lower_extension(file) == ".laz") detail::fail(file, "writing LAZ (compressed LAS) is not supported; write .las");
+    return open_las_writer(file, schema, count);
+  }
   return open_xyz_writer(file, schema, count);
 }
 

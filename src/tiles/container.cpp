@@ -27,8 +27,6 @@ fs::path temporary_name(const fs::path& target) {
 
 }  // namespace
 
-namespace {
-
 // The LAS integer grid and format of a LAS input, so that export to LAS reproduces the
 // input's integers: attributes of /points/positions (scale and offset) and /points.
 void write_source_format(h5::File& f, const io::PointTable& table) {
@@ -75,8 +73,6 @@ void read_source_format(const h5::File& f, io::PointTable& table) {
     table.las = las;
   }
 }
-
-}  // namespace
 
 void write_container(const fs::path& file, const io::PointTable& table, const ImportOptions& options) {
   options.tiling.validate();

@@ -50,6 +50,7 @@ ContainerChunkReader::ContainerChunkReader(const fs::path& file, const Container
                                   f.string_attribute(layout::positions, "source_type") == "float32"
                               ? io::ScalarType::Float32
                               : io::ScalarType::Float64;
+  read_source_format(f, schema_);
   if (f.exists(layout::attributes)) {
     for (const std::string& name : f.members(layout::attributes)) {
       const std::string path = std::string(layout::attributes) + "/" + name;
@@ -165,6 +166,8 @@ std::size_t ContainerChunkReader::append(io::PointTable& chunk, std::size_t max_
   const std::uint64_t count = std::min<std::uint64_t>(max_points, n_ - begin);
   if (count == 0) return 0;
   const auto m = static_cast<std::size_t>(count);
+  chunk.quantization = schema_.quantization;
+  chunk.las = schema_.las;
   chunk.positions.assign(m, Vec3::Zero());
   for (io::Attribute& a : chunk.attributes) a.values.assign(m, 0.0);
   if (options_.run_attributes) {

@@ -330,6 +330,7 @@ class Import {
   std::uint64_t persistent_ = 0;
 
   io::PointTable schema_;
+  std::size_t read_chunk_ = 1;  // points per chunk read
   std::uint64_t n_ = 0;
   Box bounds_{};
   Grid grid_;
@@ -359,8 +360,12 @@ void Import::count_and_bounds() {
     if (a.name.empty() || a.name.find('/') != std::string::npos || a.name == ".")
       throw io::IoError(output_.string() + ": attribute name '" + a.name + "' cannot name an HDF5 dataset");
   }
+  // The chunk within an eighth of the budget, however many attributes a point has.
+  const std::uint64_t point_bytes = 24 + 8 * schema_.attributes.size();
+  read_chunk_ = static_cast<std::size_t>(std::clamp<std::uint64_t>(
+      options_.memory_budget / 8 / point_bytes, 1, options_.read_chunk_points));
   io::PointTable chunk;
-  while (const std::size_t got = reader->read(chunk, options_.read_chunk_points)) {
+  while (const std::size_t got = reader->read(chunk, read_chunk_)) {
     account(chunk_bytes(chunk));
     for (std::size_t i = 0; i < got; ++i)
       for (std::size_t c = 0; c < 3; ++c) {
@@ -393,7 +398,7 @@ void Import::build_tiles() {
     const auto reader = io::open_point_reader(input_);
     io::PointTable chunk;
     std::uint64_t seen = 0;
-    while (const std::size_t got = reader->read(chunk, options_.read_chunk_points)) {
+    while (const std::size_t got = reader->read(chunk, read_chunk_)) {
       account(chunk_bytes(chunk));
       for (std::size_t i = 0; i < got; ++i) ++counts[grid_.cell_of(chunk.positions[i])];
       seen += got;
@@ -433,6 +438,7 @@ void Import::create_point_datasets(h5::File& f, const h5::DatasetOptions& dopt) 
   f.create_dataset(layout::positions, h5::Type::Float64, n_, 3, dopt);
   f.set_attribute(layout::positions, "source_type",
                   schema_.position_type == io::ScalarType::Float32 ? "float32" : "float64");
+  write_source_format(f, schema_);
   f.create_dataset(layout::original_index, h5::Type::UInt64, n_, 0, dopt);
   f.create_group(layout::attributes);
   for (const auto& a : schema_.attributes)
@@ -500,8 +506,7 @@ void Import::scatter(h5::File& f) {
   // sorted order and one sorted column (positions: three values; indices).
   const std::uint64_t per_point = 4 + 8 + 24 + 8 * k + 4 + 24 + 8;
   io::PointTable chunk = schema_;
-  const std::uint64_t chunk_estimate =
-      options_.read_chunk_points * (24 + 8 * k) + kReaderBytes;
+  const std::uint64_t chunk_estimate = read_chunk_ * (24 + 8 * k) + kReaderBytes;
   const std::uint64_t fixed = persistent_ + chunk_estimate;
   if (fixed + 1024 * per_point > options_.memory_budget)
     throw ParamError("the memory budget of " + std::to_string(options_.memory_budget >> 20) +
@@ -522,7 +527,7 @@ void Import::scatter(h5::File& f) {
 
   const auto reader = io::open_point_reader(input_);
   std::uint64_t index = 0;
-  while (const std::size_t got = reader->read(chunk, options_.read_chunk_points)) {
+  while (const std::size_t got = reader->read(chunk, read_chunk_)) {
     account(chunk_bytes(chunk));
     for (std::size_t i = 0; i < got; ++i, ++index) {
       if (index >= n_) changed(input_);

@@ -169,6 +169,7 @@ const Encoding kEncodings[] = {
     {"PlyBinaryBigEndian", "cloud.ply", PlyEncoding::BinaryBigEndian, ScalarType::Float64},
     {"Xyz", "cloud.xyz", PlyEncoding::Ascii, ScalarType::Float64},
     {"Csv", "cloud.csv", PlyEncoding::Ascii, ScalarType::Float64},
+    {"Las", "cloud.las", PlyEncoding::Ascii, ScalarType::Float64},
 };
 
 INSTANTIATE_TEST_SUITE_P(AllEncodings, ChunkedFormats, ::testing::ValuesIn(kEncodings),
@@ -207,6 +208,24 @@ TEST(ChunkReader, XyzPointCountLineAndHeaderGiveTheSameTable) {
     expect_same(read_chunked(file, chunk, &warnings), whole);
     EXPECT_EQ(warnings, whole_warnings);
   }
+}
+
+TEST(ChunkReader, LasChunksCarryTheQuantizationAndMetadata) {
+  TempDir dir;
+  const fs::path file = dir / "q.las";
+  write_points(file, sample_table(40, ScalarType::Float64));
+  const PointTable whole = read_points(file);
+  ASSERT_TRUE(whole.quantization && whole.las);
+  const auto reader = open_point_reader(file);
+  ASSERT_TRUE(reader->schema().quantization && reader->schema().las);
+  EXPECT_EQ(reader->schema().quantization->scale, whole.quantization->scale);
+  EXPECT_EQ(reader->schema().quantization->offset, whole.quantization->offset);
+  EXPECT_EQ(reader->schema().las->point_format, whole.las->point_format);
+  EXPECT_EQ(*reader->count(), 40u);
+  PointTable chunk;
+  EXPECT_EQ(reader->read(chunk, 16), 16u);
+  ASSERT_TRUE(chunk.quantization);
+  EXPECT_EQ(chunk.quantization->scale, whole.quantization->scale);
 }
 
 TEST(ChunkReader, ErrorsComeFromTheChunkThatMeetsThem) {

@@ -122,6 +122,18 @@ TEST_F(ImportTest, EveryFormatGivesTheSameContainerContents) {
   }
 }
 
+TEST_F(ImportTest, LasInputKeepsItsGridThroughImportAndExport) {
+  const io::PointTable input = write_cloud("in.las", test::noisy_cube(700, 40));
+  ASSERT_TRUE(input.quantization);
+  import_points(path("in.las"), path("las.h5"), streamed({.max_tile_points = 100}, 64));
+  expect_well_formed(path("las.h5"), input, 100);
+  const io::PointTable back = read_container(path("las.h5"));
+  ASSERT_TRUE(back.quantization && back.las);
+  EXPECT_EQ(back.quantization->scale, input.quantization->scale);
+  EXPECT_EQ(back.quantization->offset, input.quantization->offset);
+  EXPECT_EQ(back.las->point_format, input.las->point_format);
+}
+
 TEST_F(ImportTest, ACellDenserThanATileIsCutInInputOrder) {
   // 3000 copies of one point and a sparse rest: no grid cell can separate the copies.
   io::PointTable cloud = test::noisy_cube(600, 33);

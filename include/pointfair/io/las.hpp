@@ -1,8 +1,11 @@
 #pragma once
 // ASPRS LAS point files, versions 1.0 to 1.4, point data record formats 0 to 10
 // (uncompressed only: LAZ is refused with a hint to decompress it first).
+#include <cstdint>
 #include <filesystem>
+#include <memory>
 
+#include "pointfair/io/point_chunks.hpp"
 #include "pointfair/io/point_table.hpp"
 
 namespace pointfair::io {
@@ -30,6 +33,12 @@ namespace pointfair::io {
 /// length too small for its format, an unusable scale or offset, or a non-finite position.
 PointTable read_las(const std::filesystem::path& file, const ReadOptions& options = {});
 
+/// read_las a chunk at a time: the header and VLRs are read when the reader opens (schema()
+/// has the quantization and LAS metadata, every chunk too), count() is the header's point
+/// count, and the EVLRs are added to schema().las once the last point has been read.
+std::unique_ptr<PointChunkReader> open_las_reader(const std::filesystem::path& file,
+                                                  const ReadOptions& options = {});
+
 /// Writes `table` atomically (see write_file_atomically) as a LAS file.
 ///
 /// Version and point format: those of table.las when present (a table read from LAS);
@@ -55,5 +64,11 @@ PointTable read_las(const std::filesystem::path& file, const ReadOptions& option
 /// int32 range of the quantization, an invalid table.las (version/format), an attribute
 /// name too long for an extra bytes descriptor (32 characters), or a write failure.
 void write_las(const std::filesystem::path& file, const PointTable& table);
+
+/// write_las behind the chunk writer interface, with the quantization and LAS metadata of
+/// `schema`. Not bounded yet: the header needs the bounds, return counts and (without a
+/// quantization) the grid of every point, so the chunks are kept in memory until finish().
+std::unique_ptr<PointChunkWriter> open_las_writer(const std::filesystem::path& file, const PointTable& schema,
+                                                  std::uint64_t count);
 
 }  // namespace pointfair::io

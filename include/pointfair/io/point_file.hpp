@@ -34,12 +34,12 @@ PointTable read_points(const std::filesystem::path& file, const ReadOptions& opt
 void write_points(const std::filesystem::path& file, const PointTable& table,
                   const WriteOptions& options = {});
 
-/// The chunk reader of `file`'s format (open_ply_reader or open_xyz_reader), by extension as
+/// The chunk reader of `file`'s format (open_ply_reader, open_las_reader or open_xyz_reader), by extension as
 /// read_points. Throws IoError as read_points.
 std::unique_ptr<PointChunkReader> open_point_reader(const std::filesystem::path& file,
                                                     const ReadOptions& options = {});
 
-/// The chunk writer of `file`'s format (open_ply_writer or open_xyz_writer), by extension as
+/// The chunk writer of `file`'s format (open_ply_writer, open_las_writer or open_xyz_writer), by extension as
 /// write_points, for `count` points with the attributes of `schema`. Throws IoError as
 /// write_points.
 std::unique_ptr<PointChunkWriter> open_point_writer(const std::filesystem::path& file,

@@ -52,6 +52,13 @@ struct ImportOptions {
 void write_container(const std::filesystem::path& file, const io::PointTable& table,
                      const ImportOptions& options = {});
 
+/// The LAS quantization (scale, offset) and format of `table` (when it has them) as
+/// attributes of /points/positions and /points, written after /points/positions exists.
+void write_source_format(h5::File& file, const io::PointTable& table);
+/// Reads them back into `table` (nothing when the container has none). Throws IoError for
+/// values out of range.
+void read_source_format(const h5::File& file, io::PointTable& table);
+
 struct TileTable {
   std::vector<std::uint64_t> offsets;
   std::vector<Box> bounds;

@@ -17,7 +17,8 @@ struct StreamImportOptions {
   /// Bytes the import may hold (the histogram, the scatter buffer, the reader's chunk and
   /// tables). HDF5's own chunk caches (1 MiB per dataset) and the program come on top.
   std::uint64_t memory_budget = std::uint64_t{256} << 20;
-  /// Points per chunk read from the input.
+  /// Most points per chunk read from the input (fewer when a chunk would take more than an
+  /// eighth of the budget).
   std::size_t read_chunk_points = 1u << 16;
   /// Passed to the input's reader (e.g. "faces ignored" warnings; given once, by the first pass).
   io::ReadOptions read;
