@@ -102,8 +102,10 @@ ContainerChunkReader::~ContainerChunkReader() = default;
 std::size_t ContainerChunkReader::chunk_points_for(std::uint64_t budget) const {
   std::uint64_t per_point = 1 + 24;  // filled flag, position
   for (const Column& c : columns_) per_point += c.kind == Kind::Position ? 0 : 8 * c.data.width();
-  const std::uint64_t scratch = kScanRows * (8 + 24);
-  const std::uint64_t usable = budget > 2 * scratch ? budget - scratch : budget / 2;
+  // The reader's index and column scratch, and a point writer's encoding block (4 MiB for
+  // PLY and LAS, 1 MiB of text) besides the chunk.
+  const std::uint64_t fixed = kScanRows * (8 + 24) + (std::uint64_t{5} << 20);
+  const std::uint64_t usable = budget > 2 * fixed ? budget - fixed : budget / 2;
   return static_cast<std::size_t>(std::max<std::uint64_t>(1024, usable / per_point));
 }
 

@@ -36,8 +36,8 @@ class ContainerChunkReader final : public io::PointChunkReader {
   std::optional<std::uint64_t> count() const override { return n_; }
   /// The run's results for the points of the last chunk (empty unless asked for).
   const PointAttributes& run_attributes() const { return run_; }
-  /// Points per chunk for which a chunk (with its attributes and run results) and the
-  /// reader's scratch take about `budget` bytes.
+  /// Points per chunk for which a chunk (with its attributes and run results), the reader's
+  /// scratch and a point writer's encoding block take about `budget` bytes (at least 1024).
   std::size_t chunk_points_for(std::uint64_t budget) const;
 
  protected:
