@@ -36,6 +36,16 @@ void FileSink::flush() {
   }
 }
 
+void FileSink::write_at(std::uint64_t offset, std::string_view bytes) {
+  flush();
+  if (::fseeko(file_, static_cast<off_t>(offset), SEEK_SET) != 0) {
+    fail(name_, "write failed: " + system_error_text(errno));
+  }
+  write(bytes);
+  flush();
+  if (::fseeko(file_, 0, SEEK_END) != 0) fail(name_, "write failed: " + system_error_text(errno));
+}
+
 namespace {
 
 std::string random_suffix() {

@@ -5,6 +5,7 @@
 #include <ctime>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -124,7 +125,8 @@ void plan_extra_bytes(const fs::path& file, const LasMetadata* source, const std
   plan.header.record_length = static_cast<std::uint16_t>(offset);
 }
 
-Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuantization& q) {
+// `count` points (table may hold none: a streaming writer's schema).
+Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuantization& q, std::uint64_t count) {
   Plan plan;
   LasHeader& h = plan.header;
   const LasMetadata* source = table.las ? &*table.las : nullptr;
@@ -150,7 +152,7 @@ Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuan
   h.generating_software = "pointfair";
   h.creation_day = today_day_of_year(h.creation_year);
   h.header_size = static_cast<std::uint16_t>(las_header_size(h.version_minor));
-  h.point_count = table.size();
+  h.point_count = count;
   if (h.version_minor < 4 && h.point_count > 0xffffffffu) {
     fail(file, "LAS 1." + std::to_string(h.version_minor) + " holds at most 4294967295 points");
   }
@@ -210,7 +212,10 @@ Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuan
 }
 
 // Quantized positions' bounds and points by return, checked before anything is written.
-void scan_points(const fs::path& file, const PointTable& table, const PositionQuantization& q, LasHeader& h) {
+// `first` is the file index of the table's first point: bounds start from the file's first
+// point and grow with every later table.
+void scan_points(const fs::path& file, const PointTable& table, const PositionQuantization& q, LasHeader& h,
+                 std::uint64_t first = 0) {
   const char* axes = "xyz";
   for (int a = 0; a < 3; ++a) {
     if (!std::isfinite(q.scale[a]) || q.scale[a] == 0 || !std::isfinite(q.offset[a])) {
@@ -221,12 +226,12 @@ void scan_points(const fs::path& file, const PointTable& table, const PositionQu
     for (int a = 0; a < 3; ++a) {
       const double stored = std::round((table.positions[i][a] - q.offset[a]) / q.scale[a]);
       if (!(std::abs(stored) <= kInt32Max)) {
-        fail(file, "point " + std::to_string(i) + " (" + axes[a] + " = " + std::to_string(table.positions[i][a]) +
+        fail(file, "point " + std::to_string(first + i) + " (" + axes[a] + " = " + std::to_string(table.positions[i][a]) +
                        ") lies outside the int32 range of the LAS scale and offset");
       }
       const double value = q.offset[a] + q.scale[a] * stored;
-      if (i == 0 || value < h.min[a]) h.min[a] = value;
-      if (i == 0 || value > h.max[a]) h.max[a] = value;
+      if (first + i == 0 || value < h.min[a]) h.min[a] = value;
+      if (first + i == 0 || value > h.max[a]) h.max[a] = value;
     }
   }
   const std::size_t returns = h.point_format >= 6 ? 15 : 5;
@@ -283,7 +288,7 @@ void write_record(FileSink& sink, const LasRecord& record, bool extended) {
 void write_las(const fs::path& file, const PointTable& table) {
   check_table(file, table);
   const PositionQuantization q = table.quantization ? *table.quantization : choose_quantization(table.positions);
-  Plan plan = plan_file(file, table, q);
+  Plan plan = plan_file(file, table, q, table.size());
   scan_points(file, table, q, plan.header);
 
   write_file_atomically(file, [&](FileSink& sink) {
@@ -342,9 +347,74 @@ class LasBufferedWriter final : public PointChunkWriter {
   PointTable table_;
 };
 
+// With the schema's quantization the records stream: the header is written first with what
+// is known, and again at the end with the bounds and the points by return.
+class LasStreamWriter final : public PointChunkWriter {
+ public:
+  LasStreamWriter(const fs::path& file, const PointTable& schema, std::uint64_t count)
+      : path_(file), count_(count), q_(*schema.quantization) {
+    schema_.position_type = schema.position_type;
+    schema_.quantization = schema.quantization;
+    schema_.las = schema.las;
+    for (const Attribute& attribute : schema.attributes) schema_.attributes.push_back({attribute.name, attribute.type, {}});
+    plan_ = plan_file(file, schema_, q_, count);
+    scan_points(file, schema_, q_, plan_.header);  // checks the scale and offset
+    file_.emplace(file);
+    file_->sink().write(serialize_las_header(plan_.header));
+    for (const LasRecord& record : plan_.vlrs) write_record(file_->sink(), record, false);
+  }
+
+  void write(const PointTable& chunk) override {
+    require_schema(path_, schema_, chunk);
+    check_table(path_, chunk, points_written_);
+    if (chunk.size() > count_ - points_written_) {
+      fail(path_, "more points written than the " + std::to_string(count_) + " declared");
+    }
+    scan_points(path_, chunk, q_, plan_.header, points_written_);
+    // The plan's columns read the schema's attributes: here, the chunk's of the same index.
+    Plan chunk_plan;
+    chunk_plan.header = plan_.header;
+    chunk_plan.columns = plan_.columns;
+    for (Column& column : chunk_plan.columns) {
+      if (column.source != nullptr) {
+        column.source = &chunk.attributes[static_cast<std::size_t>(column.source - schema_.attributes.data())];
+      }
+    }
+    const std::size_t record = plan_.header.record_length;
+    const std::size_t block_records = std::max<std::size_t>(1, kBlockBytes / record);
+    block_.resize(std::min(chunk.size(), block_records) * record);
+    for (std::size_t first = 0; first < chunk.size(); first += block_records) {
+      const std::size_t records = std::min(block_records, chunk.size() - first);
+      encode_block(chunk, q_, chunk_plan, first, records, block_);
+      file_->sink().write(block_.data(), records * record);
+    }
+    points_written_ += chunk.size();
+  }
+
+  void finish() override {
+    if (points_written_ != count_) {
+      fail(path_, "only " + std::to_string(points_written_) + " of the " + std::to_string(count_) +
+                      " declared points were written");
+    }
+    for (const LasRecord& evlr : plan_.evlrs) write_record(file_->sink(), evlr, true);
+    file_->sink().write_at(0, serialize_las_header(plan_.header));
+    file_->commit();
+  }
+
+ private:
+  fs::path path_;
+  std::uint64_t count_ = 0;
+  PositionQuantization q_;
+  PointTable schema_;
+  Plan plan_;
+  std::vector<char> block_;
+  std::optional<AtomicFile> file_;
+};
+
 }  // namespace
 
 std::unique_ptr<PointChunkWriter> open_las_writer(const fs::path& file, const PointTable& schema, std::uint64_t count) {
+  if (schema.quantization) return std::make_unique<LasStreamWriter>(file, schema, count);
   return std::make_unique<LasBufferedWriter>(file, schema, count);
 }
 

@@ -228,6 +228,28 @@ TEST(ChunkReader, LasChunksCarryTheQuantizationAndMetadata) {
   EXPECT_EQ(chunk.quantization->scale, whole.quantization->scale);
 }
 
+TEST(ChunkWriter, LasWithAGridStreamsTheBytesOfWriteLas) {
+  TempDir dir;
+  write_points(dir / "source.las", sample_table(100, ScalarType::Float64));
+  const PointTable table = read_points(dir / "source.las");  // has a quantization and LAS metadata
+  ASSERT_TRUE(table.quantization);
+  write_points(dir / "whole.las", table);
+  const auto writer = open_point_writer(dir / "chunked.las", table, table.size());
+  for (std::size_t first = 0; first < table.size(); first += 7) {
+    PointTable chunk = table;
+    const std::size_t last = std::min(table.size(), first + 7);
+    chunk.positions.assign(table.positions.begin() + long(first), table.positions.begin() + long(last));
+    for (std::size_t a = 0; a < table.attributes.size(); ++a) {
+      chunk.attributes[a].values.assign(table.attributes[a].values.begin() + long(first),
+                                        table.attributes[a].values.begin() + long(last));
+    }
+    writer->write(chunk);
+  }
+  EXPECT_FALSE(fs::exists(dir / "chunked.las"));
+  writer->finish();
+  EXPECT_EQ(read_file(dir / "chunked.las"), read_file(dir / "whole.las"));
+}
+
 TEST(ChunkReader, ErrorsComeFromTheChunkThatMeetsThem) {
   TempDir dir;
   const fs::path file = dir / "bad.xyz";

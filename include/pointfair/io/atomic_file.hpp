@@ -1,6 +1,7 @@
 #pragma once
 // Output files that appear complete or not at all.
 #include <cstddef>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <functional>
@@ -20,6 +21,9 @@ class FileSink {
   void write(std::string_view text) { write(text.data(), text.size()); }
   /// Flushes the stdio buffer. Throws IoError "<name>: write failed: <reason>".
   void flush();
+  /// Overwrites bytes already written, at `offset` from the start (e.g. a header completed at
+  /// the end), then goes on appending at the end. Throws IoError as write.
+  void write_at(std::uint64_t offset, std::string_view bytes);
 
   const std::filesystem::path& name() const { return name_; }
 

@@ -65,9 +65,10 @@ std::unique_ptr<PointChunkReader> open_las_reader(const std::filesystem::path& f
 /// name too long for an extra bytes descriptor (32 characters), or a write failure.
 void write_las(const std::filesystem::path& file, const PointTable& table);
 
-/// write_las behind the chunk writer interface, with the quantization and LAS metadata of
-/// `schema`. Not bounded yet: the header needs the bounds, return counts and (without a
-/// quantization) the grid of every point, so the chunks are kept in memory until finish().
+/// write_las a chunk at a time, with the quantization and LAS metadata of `schema`: with a
+/// quantization (a table read from LAS, a container imported from one) the records stream and
+/// the header is completed by finish() (the same bytes as write_las). Without one the grid
+/// depends on the bounds of every point, so the chunks are kept in memory until finish().
 std::unique_ptr<PointChunkWriter> open_las_writer(const std::filesystem::path& file, const PointTable& schema,
                                                   std::uint64_t count);
 
