@@ -5,7 +5,9 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <type_traits>
+#include <unordered_set>
 #include <vector>
 
 #include "io_error.hpp"
@@ -27,6 +29,8 @@ constexpr std::size_t kTextFlushBytes = std::size_t{1} << 20;
 
 // A PLY header is whitespace-separated, so a name must be one non-empty token.
 void check_names(const fs::path& file, const PointTable& table) {
+  // A set, not a scan of the earlier names: a LAS record can carry 65,000 extra bytes.
+  std::unordered_set<std::string_view> seen;
   for (std::size_t i = 0; i < table.attributes.size(); ++i) {
     const std::string& name = table.attributes[i].name;
     const bool printable = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
@@ -36,9 +40,7 @@ void check_names(const fs::path& file, const PointTable& table) {
     if (name == "x" || name == "y" || name == "z") {
       fail(file, "attribute name '" + name + "' clashes with a coordinate");
     }
-    for (std::size_t j = 0; j < i; ++j) {
-      if (table.attributes[j].name == name) fail(file, "duplicate attribute '" + name + "'");
-    }
+    if (!seen.insert(name).second) fail(file, "duplicate attribute '" + name + "'");
   }
 }
 

@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <unordered_set>
 #include <vector>
 
 #include "file_reader.hpp"
@@ -266,6 +267,8 @@ PointTable read_xyz(const fs::path& file, const ReadOptions& options) {
 namespace {
 
 void check_xyz_names(const fs::path& file, const PointTable& table) {
+  // A set, not a scan of the earlier names: a LAS record can carry 65,000 extra bytes.
+  std::unordered_set<std::string_view> seen;
   for (std::size_t i = 0; i < table.attributes.size(); ++i) {
     const std::string& name = table.attributes[i].name;
     const bool readable = !name.empty() && name.front() != '#' && name.front() != '"' &&
@@ -278,9 +281,7 @@ void check_xyz_names(const fs::path& file, const PointTable& table) {
     if (folded == "x" || folded == "y" || folded == "z") {
       fail(file, "attribute name '" + name + "' clashes with a coordinate");
     }
-    for (std::size_t j = 0; j < i; ++j) {
-      if (table.attributes[j].name == name) fail(file, "duplicate attribute '" + name + "'");
-    }
+    if (!seen.insert(name).second) fail(file, "duplicate attribute '" + name + "'");
   }
 }
 
