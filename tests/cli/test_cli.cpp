@@ -161,6 +161,14 @@ TEST_F(CliTest, SmoothLasKeepsFormatAndFields) {
   EXPECT_TRUE(files_except({"in.las", "out.las"}).empty());
 }
 
+TEST_F(CliTest, LazInputIsRefusedWithHowToDecompress) {
+  const fs::path in = write_bytes("scan.laz", "LASF");
+  const fs::path out = dir_ / "out.las";
+  const RunResult r = run("smooth " + in.string() + " " + out.string());
+  expect_clean_failure(r, 3, in, out);
+  EXPECT_NE(r.err.find("laszip"), std::string::npos) << r.err;
+}
+
 TEST_F(CliTest, CurvatureWritesEveryAttribute) {
   const fs::path in = write_cloud("in.ply", 4000);
   const fs::path out = dir_ / "curv.xyz";

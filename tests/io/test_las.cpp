@@ -299,6 +299,25 @@ TEST(Las, ReadsFormat10WithWavePacketsAndExtraBytes) {
   for (const Attribute& a : t.attributes) EXPECT_EQ(again.find(a.name)->values, a.values) << a.name;
 }
 
+// The longest record LAS allows: 65,515 undescribed bytes after format 0, each an attribute.
+TEST(Las, KeepsTheUndescribedBytesOfTheLongestRecord) {
+  TempDir dir;
+  Bytes b(false);
+  b.text(header_bytes({.minor = 2, .format = 0, .record_length = 65535}));
+  xyz(b, 1, 2, 3);
+  b.put<std::uint16_t>(0).put<std::uint8_t>(9).put<std::uint8_t>(2).put<std::uint32_t>(0);
+  std::string extra(65515, '\0');
+  for (std::size_t k = 0; k < extra.size(); ++k) extra[k] = static_cast<char>(k * 31 % 251);
+  b.text(extra);
+  write_file(dir / "wide.las", b.str());
+  const PointTable t = read_las(dir / "wide.las");
+  ASSERT_EQ(t.attributes.size(), 12u + 65515u);
+  EXPECT_EQ(t.attributes.back().name, "extra_byte_65514");
+  EXPECT_EQ(attr(t, "extra_byte_1000"), 1000 * 31 % 251);
+  write_las(dir / "back.las", t);
+  EXPECT_EQ(read_file(dir / "back.las").substr(227), b.str().substr(227));
+}
+
 // Upper bound of a standard field's values in `format`, for the random round trips.
 double field_max(int format, const Attribute& a) {
   const bool extended = format >= 6;
