@@ -2,7 +2,7 @@
 // section 2.5.2: 192 bytes each) turned into attribute columns, and back.
 #include <algorithm>
 #include <cctype>
-#include <set>
+#include <unordered_set>
 #include <string>
 
 #include "io_error.hpp"
@@ -71,15 +71,20 @@ std::size_t described_extra_size(const std::filesystem::path& file, std::string_
 
 std::vector<ExtraColumn> extra_columns(const std::filesystem::path& file, int format,
                                        std::string_view descriptors, std::size_t extra_size) {
-  std::set<std::string> taken;
+  std::unordered_set<std::string> taken;  // the described names
   std::vector<ExtraColumn> columns;
-  auto add = [&](std::string name, LasStorage storage, std::size_t offset) {
+  columns.reserve(extra_size);
+  auto unique = [&](std::string name) {
     if (is_las_field_name(format, name) || taken.count(name) != 0) {
       std::string base = name;
       for (int k = 2; is_las_field_name(format, name) || taken.count(name) != 0; ++k) name = base + "_" + std::to_string(k);
     }
+    return name;
+  };
+  auto add = [&](std::string name, LasStorage storage, std::size_t offset) {
+    name = unique(std::move(name));
     taken.insert(name);
-    columns.push_back({name, attribute_type_of(storage), storage, offset});
+    columns.push_back({std::move(name), attribute_type_of(storage), storage, offset});
   };
   std::size_t offset = 0;
   const std::vector<Descriptor> list = parse(file, descriptors);
@@ -95,8 +100,12 @@ std::vector<ExtraColumn> extra_columns(const std::filesystem::path& file, int fo
     }
     offset += d.size;
   }
+  // Undescribed bytes: "extra_byte_<k>" differ from each other and from every standard name,
+  // so only the described names are checked (a record may hold 65,000 such bytes).
   for (std::size_t k = 0; offset < extra_size; ++k, ++offset) {
-    add("extra_byte_" + std::to_string(k), LasStorage::U8, offset);
+    std::string name = "extra_byte_" + std::to_string(k);
+    if (!taken.empty()) name = unique(std::move(name));
+    columns.push_back({std::move(name), ScalarType::UInt8, LasStorage::U8, offset});
   }
   return columns;
 }

@@ -260,11 +260,13 @@ class LasChunkReader final : public PointChunkReader {
       schema_.attributes.push_back(Attribute{std::string(field.name), field.type, {}});
     }
     const std::size_t base = point_record_size(h_.point_format);
-    for (const ExtraColumn& extra :
+    schema_.attributes.reserve(columns_.size() + (h_.record_length - base));
+    columns_.reserve(schema_.attributes.capacity());
+    for (ExtraColumn& extra :
          extra_columns(file, h_.point_format, metadata.extra_bytes_descriptors, h_.record_length - base)) {
       columns_.push_back({extra.storage, base + extra.offset, 0, 0, schema_.attributes.size(),
                           extra.storage == LasStorage::U64 || extra.storage == LasStorage::I64});
-      schema_.attributes.push_back(Attribute{extra.name, extra.type, {}});
+      schema_.attributes.push_back(Attribute{std::move(extra.name), extra.type, {}});
     }
     schema_.las = std::move(metadata);
     rounded_.assign(columns_.size(), false);

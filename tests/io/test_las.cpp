@@ -318,6 +318,28 @@ TEST(Las, KeepsTheUndescribedBytesOfTheLongestRecord) {
   EXPECT_EQ(read_file(dir / "back.las").substr(227), b.str().substr(227));
 }
 
+TEST(Las, ExtraByteNamesNeverCollide) {
+  TempDir dir;
+  const std::string vlr =
+      vlr_bytes("LASF_Spec", 4, descriptor("classification", 1) + descriptor("extra_byte_0", 1) + descriptor("a b", 1) + descriptor("a_b", 1));
+  Bytes b(false);
+  b.text(header_bytes({.minor = 2, .format = 0, .vlr_count = 1, .vlr_bytes = static_cast<std::uint32_t>(vlr.size()),
+                       .record_length = 20 + 4 + 2}));
+  b.text(vlr);
+  xyz(b, 1, 2, 3);
+  b.put<std::uint16_t>(0).put<std::uint8_t>(9).put<std::uint8_t>(2).put<std::uint32_t>(0);
+  for (int k = 1; k <= 6; ++k) b.put<std::uint8_t>(static_cast<std::uint8_t>(k));
+  write_file(dir / "names.las", b.str());
+  const PointTable t = read_las(dir / "names.las");
+  ASSERT_EQ(t.attributes.size(), 12u + 6u);
+  const char* names[] = {"classification_2", "extra_byte_0", "a_b", "a_b_2", "extra_byte_0_2", "extra_byte_1"};
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_EQ(t.attributes[12 + static_cast<std::size_t>(k)].name, names[k]);
+    EXPECT_EQ(t.attributes[12 + static_cast<std::size_t>(k)].values[0], k + 1);
+  }
+  EXPECT_EQ(attr(t, "classification"), 2);
+}
+
 // Upper bound of a standard field's values in `format`, for the random round trips.
 double field_max(int format, const Attribute& a) {
   const bool extended = format >= 6;
