@@ -63,8 +63,11 @@ LasHeader read_header(FileReader& reader) {
     }
   }
   LasHeader h = parse_las_header(file, bytes);
+  if (h.header_size > reader.size()) {
+    fail(file, "truncated header: header size " + std::to_string(h.header_size) + " exceeds the file size (" +
+                   std::to_string(reader.size()) + " bytes)");
+  }
   skip_to(reader, h.header_size, "the end of the header");
-  if (position_of(reader) != h.header_size) fail(file, "truncated header: the file ends inside it");
 
   if ((h.format_byte & 0xc0) != 0) fail_laz(file);
   if (h.point_format > kMaxPointFormat) {

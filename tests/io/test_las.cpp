@@ -546,6 +546,7 @@ TEST_F(LasErrors, SignatureAndHeader) {
   expect(valid_format0().substr(0, 100), "truncated header");
   expect(valid_format0({.minor = 4}).substr(0, 300), "truncated header");
   expect(valid_format0({.header_size = 200}), "header size 200 is smaller than the 227 bytes");
+  expect(valid_format0({.header_size = 60000}).substr(0, 1000), "truncated header: header size 60000 exceeds the file size");
   expect(valid_format0({.minor = 4, .header_size = 300}), "header size 300 is smaller than the 375 bytes");
   bytes = valid_format0();
   bytes[25] = 9;
