@@ -51,7 +51,7 @@ if command -v clang++ >/dev/null &&
     -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" \
     -DPOINTFAIR_WERROR=ON -DPOINTFAIR_BUILD_TESTS=OFF -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_FUZZ=ON \
     -DPOINTFAIR_FUZZ_SECONDS="${POINTFAIR_FUZZ_SECONDS:-20}" >/dev/null
-  cmake --build "$fuzz" -j"$(nproc)" --target pointfair_fuzz_ply pointfair_fuzz_xyz pointfair_fuzz_container
+  cmake --build "$fuzz" -j"$(nproc)" --target pointfair_fuzz_ply pointfair_fuzz_xyz pointfair_fuzz_las pointfair_fuzz_container
   ctest --test-dir "$fuzz" --output-on-failure -j"$(nproc)" --timeout 600
 else
   rm -rf "$probe"

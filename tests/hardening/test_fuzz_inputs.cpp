@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "pointfair/io/las.hpp"
 #include "pointfair/io/mesh.hpp"
 #include "pointfair/io/ply.hpp"
 #include "pointfair/io/xyz.hpp"
@@ -66,4 +67,10 @@ TEST(FuzzInputs, TextReadersGiveATableOrAnIoError) {
     table_or_io_error(f, [](const fs::path& p) { return io::read_xyz(p); });
     mesh_or_io_error(f, [](const fs::path& p) { return io::read_off_mesh(p); });
   }
+}
+
+TEST(FuzzInputs, LasReaderGivesATableOrAnIoError) {
+  const auto files = inputs("las");
+  EXPECT_FALSE(files.empty());
+  for (const fs::path& f : files) table_or_io_error(f, [](const fs::path& p) { return io::read_las(p); });
 }
