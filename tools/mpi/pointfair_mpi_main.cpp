@@ -145,5 +145,11 @@ int main(int argc, char** argv) {
   // ranks, busy with their tiles, would never join).
   std::set_terminate(on_failure);
   tiles::MpiRanks ranks;
-  return run(std::vector<std::string>(all.begin() + 1, all.end()), ranks);
+  try {
+    return run(std::vector<std::string>(all.begin() + 1, all.end()), ranks);
+  } catch (const cli::UsageError& e) {
+    // Every rank parses the same command line: all end here, before any file is open.
+    if (ranks.rank() == 0) std::fprintf(stderr, "error: %s\n", e.what());
+    return 2;
+  }
 }
