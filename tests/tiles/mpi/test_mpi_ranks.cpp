@@ -103,6 +103,14 @@ TEST_F(MpiRunTest, FourRanksBitIdenticalToOneProcess) {
   expect_same_run("ref.h5", "out.h5");
 }
 
+TEST_F(MpiRunTest, MoreRanksThanTilesLeavesRanksIdleAndTheSameBits) {
+  write_container(path("in.h5"), test::noisy_cube(8000, 31), test::tiled({.max_tile_points = 6000}));
+  ASSERT_EQ(read_tile_table(h5::File::open(path("in.h5"), false)).size(), 2u);
+  run_serial("ref.h5");
+  ASSERT_EQ(run_mpi(3, "out.h5"), 0) << log_;
+  expect_same_run("ref.h5", "out.h5");
+}
+
 TEST_F(MpiRunTest, OneRankUnderMpirunBitIdenticalToOneProcess) {
   run_serial("ref.h5");
   ASSERT_EQ(run_mpi(1, "out.h5"), 0) << log_;
