@@ -5,11 +5,12 @@
 #   tools/slurm/pipeline.sh SCAN WORKDIR RESULT [pointfair_mpi smooth options]
 #   tools/slurm/pipeline.sh scan.las /scratch/me/scan smoothed.ply --steps 50 --memory-budget 48G
 #
-# import and export run as one task (they hold the cloud in memory: give them a node with
-# enough of it, POINTFAIR_IMPORT_MEM); smooth runs smooth.sbatch on POINTFAIR_NODES nodes.
+# import and export run as one task each (they stream within their --memory-budget);
+# smooth runs smooth.sbatch on POINTFAIR_NODES nodes.
 # Environment: POINTFAIR (the serial CLI, default pointfair), POINTFAIR_MPI, POINTFAIR_NODES
-# (default 4), POINTFAIR_TILE_BUDGET (import's --memory-budget, the tile size; default 2G),
-# POINTFAIR_IMPORT_MEM (default 0 = a whole node's memory), SBATCH_EXTRA (e.g. "-p long -A proj").
+# (default 4), POINTFAIR_TILE_BUDGET (import's --memory-budget: the tile size and its own
+# memory; default 2G), POINTFAIR_IMPORT_MEM (Slurm --mem of import and export; default 0, a
+# whole node's), SBATCH_EXTRA (e.g. "-p long -A proj").
 set -euo pipefail
 if [ $# -lt 3 ]; then
   echo "usage: pipeline.sh SCAN WORKDIR RESULT [smooth options]" >&2
