@@ -29,7 +29,8 @@ int run_import(const Args& args) {
   parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
   parser.positional("OUT", "Output container (.h5); written under a temporary name and renamed.", &output);
   parser.value("memory-budget", "SIZE",
-               "Memory budget of later runs (e.g. 256M, 2G): sets the tile size. Default 256M.",
+               "Memory budget (e.g. 256M, 2G): sets the tile size of later runs and bounds the import's "
+               "own memory, which streams the file in three passes (at least 16M). Default 256M.",
                [&](std::string_view v) { budget = parse_size(v, "--memory-budget"); });
   parser.value("tile-points", "N", "Most points per tile (kd tiles); overrides --memory-budget.",
                [&](std::string_view v) {
