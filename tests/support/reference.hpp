@@ -5,7 +5,8 @@
 // curvatures, the Weingarten map as a 3x3 tangent tensor (weights, then H, then W), the
 // Laplacian with its cut-offs, feature classes and one Euler step.
 //
-// They are slow and simple on purpose: the tests compare the fast kernels against them.
+// They are slow and simple on purpose: the tests compare the fast kernels against them. The
+// larger ones are compiled once, in reference.cpp (Eigen's solvers cost seconds per file).
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -13,7 +14,7 @@
 #include <span>
 #include <vector>
 
-#include <Eigen/Eigenvalues>
+#include <Eigen/Core>
 
 #include "pointfair/types.hpp"
 
@@ -28,36 +29,12 @@ inline double distance2(const Vec3& a, const Vec3& b) {
 
 /// The k nearest other points of point `self` within distance eps (d^2 <= eps^2), ordered by
 /// distance, ties by the smaller index. eps = +infinity: no bound.
-inline std::vector<Index> neighbors(std::span<const Vec3> points, std::size_t self, int k,
-                                    double eps) {
-  const double bound2 = std::isinf(eps) ? eps : eps * eps;
-  std::vector<std::pair<double, Index>> candidates;
-  for (std::size_t j = 0; j < points.size(); ++j) {
-    if (j == self) continue;
-    const double d2 = distance2(points[self], points[j]);
-    if (d2 <= bound2) candidates.emplace_back(d2, static_cast<Index>(j));
-  }
-  std::sort(candidates.begin(), candidates.end());
-  std::vector<Index> result;
-  for (std::size_t j = 0; j < candidates.size() && j < static_cast<std::size_t>(k); ++j)
-    result.push_back(candidates[j].second);
-  return result;
-}
+std::vector<Index> neighbors(std::span<const Vec3> points, std::size_t self, int k,
+                             double eps);
 
 /// factor times the median (element n/2 of the sorted list) over all points of the distance
 /// to the k-th nearest other point.
-inline double auto_eps(std::span<const Vec3> points, int k, double factor) {
-  std::vector<double> kth;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    std::vector<double> d;
-    for (std::size_t j = 0; j < points.size(); ++j)
-      if (j != i) d.push_back(std::sqrt(distance2(points[i], points[j])));
-    std::sort(d.begin(), d.end());
-    kth.push_back(d[std::min<std::size_t>(static_cast<std::size_t>(k), d.size()) - 1]);
-  }
-  std::sort(kth.begin(), kth.end());
-  return factor * kth[kth.size() / 2];
-}
+double auto_eps(std::span<const Vec3> points, int k, double factor);
 
 struct Frame {
   Vec3 normal;
@@ -69,26 +46,7 @@ struct Frame {
 
 /// PCA of {p} ∪ N about the barycentre: covariance (divided by the count) of the explicit
 /// centred points, eigen-decomposed with the iterative solver.
-inline Frame frame(const Vec3& p, std::span<const Index> nb, std::span<const Vec3> points) {
-  std::vector<Vec3> set{p};
-  for (const Index j : nb) set.push_back(points[j]);
-  Vec3 centroid = Vec3::Zero();
-  for (const Vec3& q : set) centroid += q;
-  centroid /= static_cast<double>(set.size());
-  Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
-  for (const Vec3& q : set) m += (q - centroid) * (q - centroid).transpose();
-  m /= static_cast<double>(set.size());
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(m);
-  Frame f;
-  f.covariance = m;
-  f.normal = solver.eigenvectors().col(0);
-  f.v2 = solver.eigenvectors().col(1);
-  f.v1 = solver.eigenvectors().col(2);
-  f.c0 = solver.eigenvalues()[0];
-  f.c2 = solver.eigenvalues()[1];
-  f.c1 = solver.eigenvalues()[2];
-  return f;
-}
+Frame frame(const Vec3& p, std::span<const Index> nb, std::span<const Vec3> points);
 
 /// Directional curvature, eq. (2).
 inline double kappa(const Vec3& normal, const Vec3& p, const Vec3& q) {
@@ -103,42 +61,8 @@ struct Weingarten {
 };
 
 /// MATH.md step 4 and 5: weights, normalisation to 2 pi, H, then W; eigenvalues in (v1, v2).
-inline Weingarten weingarten(const Vec3& p, std::span<const Index> nb, std::span<const Vec3> points,
-                             const Frame& f, bool paper_weights, double density_floor) {
-  const std::size_t n = nb.size();
-  std::vector<Vec3> t(n);
-  std::vector<double> kap(n), w(n);
-  for (std::size_t j = 0; j < n; ++j) {
-    const Vec3 e = points[nb[j]] - p;
-    t[j] = (e - f.normal.dot(e) * f.normal).normalized();
-    kap[j] = kappa(f.normal, p, points[nb[j]]);
-  }
-  for (std::size_t j = 0; j < n; ++j) {
-    if (!paper_weights) {
-      w[j] = 1.0;
-      continue;
-    }
-    const double delta = 2.0 * t[j].dot(f.covariance * t[j]) - 0.5 * (f.c1 + f.c2);
-    const double clamped = std::max(delta, density_floor * (f.c1 + f.c2));
-    w[j] = (points[nb[j]] - p).norm() / clamped;
-  }
-  double total = 0;
-  for (const double x : w) total += x;
-  for (double& x : w) x *= 2.0 * std::numbers::pi / total;
-  Weingarten result;
-  for (std::size_t j = 0; j < n; ++j) result.mean += w[j] * kap[j];
-  result.mean /= 2.0 * std::numbers::pi;
-  for (std::size_t j = 0; j < n; ++j)
-    result.map += w[j] * (2.0 * kap[j] - result.mean) * t[j] * t[j].transpose();
-  result.map /= std::numbers::pi;
-  Eigen::Matrix<double, 3, 2> basis;
-  basis << f.v1, f.v2;
-  const Eigen::Matrix2d in_plane = basis.transpose() * result.map * basis;
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> solver(in_plane);
-  result.k2 = solver.eigenvalues()[0];
-  result.k1 = solver.eigenvalues()[1];
-  return result;
-}
+Weingarten weingarten(const Vec3& p, std::span<const Index> nb, std::span<const Vec3> points,
+                      const Frame& f, bool paper_weights, double density_floor);
 
 enum class Cut { None, Sharp, Continuous };
 
@@ -179,22 +103,7 @@ struct StepOptions {
 };
 
 /// One Jacobi step: reads `points`, returns the new positions. neighbour lists given per point.
-inline std::vector<Vec3> euler_step(std::span<const Vec3> points,
-                                    const std::vector<std::vector<Index>>& nbs,
-                                    const StepOptions& o) {
-  std::vector<Vec3> next(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const Vec3& p = points[i];
-    const Frame f = frame(p, nbs[i], points);
-    Cut cut = o.cut;
-    if (o.gated) {
-      const Weingarten w = weingarten(p, nbs[i], points, f, o.paper_weights, o.density_floor);
-      if (feature_class(w.k1, w.k2, true, o.quotient, o.lambda) == 0) cut = Cut::None;
-    }
-    const Vec3 a = laplacian(p, nbs[i], points, f.normal, o.lambda, cut);
-    next[i] = o.normal_only ? Vec3(p + o.tau * a.dot(f.normal) * f.normal) : Vec3(p + o.tau * a);
-  }
-  return next;
-}
+std::vector<Vec3> euler_step(std::span<const Vec3> points,
+                             const std::vector<std::vector<Index>>& nbs, const StepOptions& o);
 
 }  // namespace pointfair::test::ref
