@@ -8,6 +8,8 @@
 
 #include <nanoflann.hpp>
 
+#include "pointfair/params_error.hpp"
+
 namespace pointfair {
 namespace {
 
@@ -108,7 +110,10 @@ struct KdTree::Impl {
   }
 };
 
-KdTree::KdTree(std::span<const Vec3> points) : impl_(std::make_unique<Impl>(points)) {}
+KdTree::KdTree(std::span<const Vec3> points) {
+  require_finite(points, "k-d tree");
+  impl_ = std::make_unique<Impl>(points);
+}
 KdTree::~KdTree() = default;
 KdTree::KdTree(KdTree&&) noexcept = default;
 KdTree& KdTree::operator=(KdTree&&) noexcept = default;

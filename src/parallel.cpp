@@ -1,10 +1,13 @@
 #include "pointfair/parallel.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <exception>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
+#include <vector>
 
 #if defined(POINTFAIR_USE_TBB)
 #include <tbb/blocked_range.h>
@@ -23,7 +26,7 @@ int default_threads() {
   return tbb::info::default_concurrency();
 #elif defined(POINTFAIR_USE_OPENMP)
   return omp_get_num_procs();
-#else
+#else  // std::thread back end
   return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 #endif
 }
@@ -90,7 +93,30 @@ void parallel_for(std::size_t n, const std::function<void(std::size_t, std::size
   }
   if (error) std::rethrow_exception(error);
 #else
-  body(0, n);
+  // Plain std::thread back end (POINTFAIR_PARALLEL=Threads): threads started per call, taking
+  // grain-sized chunks from a shared counter. Slower to start than a pool, but every
+  // synchronisation is a thread start, an atomic or a join, which ThreadSanitizer sees.
+  const std::size_t chunks = (n + grain - 1) / grain;
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  const auto work = [&] {
+    for (std::size_t c = next.fetch_add(1); c < chunks; c = next.fetch_add(1)) {
+      try {
+        body(c * grain, std::min(n, (c + 1) * grain));
+      } catch (...) {
+        std::lock_guard lock(error_mutex);
+        if (!error) error = std::current_exception();
+      }
+    }
+  };
+  const std::size_t helpers = std::min<std::size_t>(static_cast<std::size_t>(threads), chunks) - 1;
+  std::vector<std::thread> pool;
+  pool.reserve(helpers);
+  for (std::size_t t = 0; t < helpers; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
 #endif
 }
 

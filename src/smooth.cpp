@@ -32,6 +32,7 @@ void SmoothParams::validate() const {
 SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
                     const SmoothOptions& options) {
   params.validate();
+  require_finite(positions, "smooth");
   require(options.neighbor_reference.empty() ||
               options.neighbor_reference.size() == positions.size(),
           "the neighbour reference cloud must have as many points as the input (" +

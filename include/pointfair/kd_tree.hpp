@@ -16,7 +16,10 @@ namespace pointfair {
 
 class KdTree {
  public:
-  /// Builds the tree over `points`, which must outlive the tree and stay unchanged.
+  /// Builds the tree over `points`, which must outlive the tree and stay unchanged. Throws
+  /// ParamError "k-d tree: point i has a non-finite coordinate (x, y, z)" for NaN or infinite
+  /// coordinates: every neighbourhood (and so smooth(), curvature and attributes) is built
+  /// through a tree, so a NaN never enters the method.
   explicit KdTree(std::span<const Vec3> points);
   ~KdTree();
   KdTree(const KdTree&) = delete;

@@ -1,6 +1,6 @@
 #pragma once
-// The one parallel facade of the library. Kernels call parallel_for; the back end (TBB or
-// OpenMP, chosen at configure time) is hidden in parallel.cpp.
+// The one parallel facade of the library. Kernels call parallel_for; the back end (TBB,
+// OpenMP or plain std::thread, chosen at configure time) is hidden in parallel.cpp.
 //
 // Thread-safety: `body` is called concurrently for disjoint index ranges; it must not write
 // shared state except through the range it is given. Results therefore do not depend on the

@@ -28,6 +28,25 @@ void quiet_hdf5() {
   });
 }
 
+// The operating system's words for the innermost error of libhdf5's current error stack
+// (e.g. "No space left on device", "File too large"), from the "error message = '...'" part
+// its low-level file drivers write; empty when the failure did not come from the system.
+std::string hdf5_error_reason() {
+  std::string innermost;
+  const auto visit = [](unsigned depth, const H5E_error2_t* error, void* data) -> herr_t {
+    auto& text = *static_cast<std::string*>(data);
+    if (depth == 0 && error->desc != nullptr) text = error->desc;
+    return 0;
+  };
+  if (H5Ewalk2(H5E_DEFAULT, H5E_WALK_UPWARD, visit, &innermost) < 0) return {};
+  const std::string key = "error message = '";
+  const std::size_t begin = innermost.find(key);
+  if (begin == std::string::npos) return {};
+  const std::size_t end = innermost.find('\'', begin + key.size());
+  if (end == std::string::npos) return {};
+  return innermost.substr(begin + key.size(), end - begin - key.size());
+}
+
 hid_t memory_type(Type t) {
   switch (t) {
     case Type::Int8: return H5T_NATIVE_INT8;
@@ -133,6 +152,8 @@ void File::fail(std::string_view object, std::string_view problem) const {
   std::string message = name_.string();
   if (!object.empty()) message += std::string(": ") + std::string(object);
   message += std::string(": ") + std::string(problem);
+  const std::string reason = hdf5_error_reason();
+  if (!reason.empty()) message += " (" + reason + ")";
   throw io::IoError(message);
 }
 

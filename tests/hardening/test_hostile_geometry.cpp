@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include "pointfair/neighborhoods.hpp"
@@ -282,4 +284,37 @@ TEST(HostileGeometry, HugeCoordinatesMatchTheCloudAtTheOrigin) {
   const auto [worst, rms] = clouds.compare(few_steps(20));
   EXPECT_LT(worst, 0.05);
   EXPECT_LT(rms, 2e-3);
+}
+
+// NaN and infinite coordinates through the library (the readers already refuse such files):
+// a ParamError naming the first bad point before any work, the caller's positions untouched.
+TEST(HostileGeometry, NonFiniteCoordinatesAreRefusedBeforeAnyWork) {
+  const double bad_values[] = {std::numeric_limits<double>::quiet_NaN(),
+                               std::numeric_limits<double>::infinity(),
+                               -std::numeric_limits<double>::infinity()};
+  for (const double bad : bad_values) {
+    for (int axis = 0; axis < 3; ++axis) {
+      std::vector<Vec3> points = noisy_sphere(500, 0.01, 7);
+      points[123][axis] = bad;
+      const std::vector<Vec3> before = points;
+      try {
+        smooth(points, few_steps());
+        FAIL() << "smooth accepted a non-finite coordinate";
+      } catch (const ParamError& e) {
+        EXPECT_NE(std::string(e.what()).find("point 123 has a non-finite coordinate"),
+                  std::string::npos)
+            << e.what();
+      }
+      ASSERT_EQ(points.size(), before.size());
+      EXPECT_EQ(std::memcmp(points.data(), before.data(), points.size() * sizeof(Vec3)), 0);
+      EXPECT_THROW(build_neighborhoods(points, NeighborParams{}), ParamError);
+    }
+  }
+  // A clean neighbour reference does not let a NaN in the positions through.
+  std::vector<Vec3> points = noisy_sphere(500, 0.01, 7);
+  const std::vector<Vec3> reference = points;
+  points[7].x() = std::numeric_limits<double>::quiet_NaN();
+  SmoothOptions options;
+  options.neighbor_reference = reference;
+  EXPECT_THROW(smooth(points, few_steps(), options), ParamError);
 }
