@@ -38,7 +38,8 @@ std::vector<Index> spatial_order(std::span<const Vec3> points) {
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) {
       const Vec3 q = (points[i] - low) * scale;
-      auto axis = [](double v) { return static_cast<std::uint64_t>(std::clamp(v, 0.0, 2097151.0)); };
+      // NaN (a non-finite coordinate or extent) goes to cell 0: the order stays defined.
+      auto axis = [](double v) { return static_cast<std::uint64_t>(v > 0.0 ? std::min(v, 2097151.0) : 0.0); };
       const std::uint64_t code =
           spread_bits(axis(q.x())) | spread_bits(axis(q.y())) << 1 | spread_bits(axis(q.z())) << 2;
       keyed[i] = {code, static_cast<Index>(i)};

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <vector>
@@ -44,6 +45,17 @@ TEST(SpatialOrder, IsAPermutationAndLocal) {
   const auto inverse = inverse_permutation(order);
   for (std::size_t s = 0; s < order.size(); ++s) EXPECT_EQ(inverse[order[s]], s);
   EXPECT_TRUE(same_bits(scatter(gather(points, order), order), points));
+}
+
+// Non-finite coordinates (refused by smooth(), but spatial_order is public): still a
+// permutation, with no undefined float-to-integer conversion (checked under UBSan).
+TEST(SpatialOrder, NonFiniteCoordinatesStillGiveAPermutation) {
+  std::vector<Vec3> points = {Vec3(0, 0, 0), Vec3(1, 2, 3), Vec3(2, 1, 0), Vec3(3, 3, 3)};
+  points[1].y() = std::numeric_limits<double>::quiet_NaN();
+  points[3].x() = std::numeric_limits<double>::infinity();
+  std::vector<Index> order = spatial_order(points);
+  std::sort(order.begin(), order.end());
+  EXPECT_EQ(order, (std::vector<Index>{0, 1, 2, 3}));
 }
 
 TEST(SpatialOrder, PermutedNeighbourhoodsNameTheSamePoints) {
