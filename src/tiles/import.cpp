@@ -302,6 +302,9 @@ class Import {
   StreamImportReport run();
 
  private:
+  void progress(const char* pass, std::uint64_t done, std::uint64_t total) const {
+    if (options_.progress) options_.progress(pass, done, total);
+  }
   void account(std::uint64_t working) {
     const std::uint64_t total = persistent_ + working;
     report_.peak_accounted_bytes = std::max(report_.peak_accounted_bytes, total);
@@ -374,6 +377,7 @@ void Import::count_and_bounds() {
         bounds_[c + 3] = std::max(bounds_[c + 3], v);
       }
     n_ += got;
+    progress("count", n_, 0);
   }
   if (n_ >= std::numeric_limits<std::uint32_t>::max())
     throw io::IoError(input_.string() + ": " + std::to_string(n_) + " points exceed the limit of 2^32-2 of a container");
@@ -402,6 +406,7 @@ void Import::build_tiles() {
       account(chunk_bytes(chunk));
       for (std::size_t i = 0; i < got; ++i) ++counts[grid_.cell_of(chunk.positions[i])];
       seen += got;
+      progress("histogram", seen, n_);
     }
     if (seen != n_) changed(input_);
   }
@@ -559,6 +564,7 @@ void Import::scatter(h5::File& f) {
       for (std::size_t a = 0; a < k; ++a) buffer_values_[a * capacity_ + slot] = chunk.attributes[a].values[i];
       if (buffer_tile_.size() == capacity_) flush(f);
     }
+    progress("scatter", index, n_);
   }
   flush(f);
   if (index != n_) changed(input_);

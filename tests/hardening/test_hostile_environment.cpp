@@ -255,6 +255,31 @@ TEST_F(HostileEnvironment, SigintAndSigtermStopASmoothRunCleanly) {
   }
 }
 
+TEST_F(HostileEnvironment, SignalDuringAnImportLeavesNoContainer) {
+  // The import checks for a signal after every chunk of its three passes; 200,000 points are
+  // several chunks per pass.
+  const fs::path in = write_cloud("in.ply", 200000);
+  const std::string before = slurp(in);
+  for (const int sig : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(sig);
+    const Child c = start({"import", in.string(), (dir_ / "scan.h5").string()});
+    ASSERT_TRUE(wait_for_handlers(c.pid));
+    kill(c.pid, sig);
+    const Result r = wait_for(c);
+    // Interrupted, or finished before the signal arrived: then the container is complete.
+    if (r.exit_code == 128 + sig) {
+      EXPECT_NE(r.err.find("interrupted by SIG"), std::string::npos) << r.err;
+      EXPECT_FALSE(fs::exists(dir_ / "scan.h5"));
+    } else {
+      EXPECT_EQ(r.exit_code, 0) << r.err;
+      EXPECT_TRUE(fs::exists(dir_ / "scan.h5"));
+      fs::remove(dir_ / "scan.h5");
+    }
+    EXPECT_EQ(slurp(in), before);
+    EXPECT_EQ(joined(other_files({"in.ply"})), "");
+  }
+}
+
 TEST_F(HostileEnvironment, SignalDuringCurvatureOrDemoLeavesOnlyCompleteFiles) {
   const fs::path in = write_cloud("in.ply", 20000);
   const std::string before = slurp(in);

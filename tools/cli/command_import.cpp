@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "interrupt.hpp"
 #include "json_writer.hpp"
 #include "out_of_core.hpp"
 #include "run_support.hpp"
@@ -73,6 +74,8 @@ int run_import(const Args& args) {
   stream.read.on_warning = [quiet](const std::string& message) {
     if (!quiet) std::fprintf(stderr, "warning: %s\n", message.c_str());
   };
+  // SIGINT/SIGTERM stop the import between chunks: the temporary file is removed.
+  stream.progress = [](const std::string&, std::uint64_t, std::uint64_t) { throw_if_interrupted(); };
   const tiles::StreamImportReport report = tiles::import_points(input, output, stream);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (!quiet)

@@ -104,6 +104,7 @@ int run_smooth_out_of_core(const Args& args) {
     import.read.on_warning = [quiet = output.quiet](const std::string& message) {
       if (!quiet) std::fprintf(stderr, "warning: %s\n", message.c_str());
     };
+    import.progress = [](const std::string&, std::uint64_t, std::uint64_t) { throw_if_interrupted(); };
     if (!(ooc.resume && fs::exists(imported))) tiles::import_points(input, imported, import);
     run_input = imported;
   }

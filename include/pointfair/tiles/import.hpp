@@ -5,6 +5,8 @@
 // worth of points is held.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
+#include <string>
 
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/tiles/container.hpp"
@@ -22,6 +24,10 @@ struct StreamImportOptions {
   std::size_t read_chunk_points = 1u << 16;
   /// Passed to the input's reader (e.g. "faces ignored" warnings; given once, by the first pass).
   io::ReadOptions read;
+  /// Called after every chunk of each pass with the pass ("count", "histogram", "scatter"),
+  /// the points read so far in it and the total (0 while counting). It may throw to stop the
+  /// import (e.g. on SIGINT): nothing is left behind, as for any error.
+  std::function<void(const std::string& pass, std::uint64_t done, std::uint64_t total)> progress;
 };
 
 struct StreamImportReport {
