@@ -50,7 +50,7 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
     -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_TEST_OPENMP=OFF -DPOINTFAIR_SANITIZE=address,undefined >/dev/null
   cmake --build "$asan" -j"$jobs"
   ASAN_OPTIONS=abort_on_error=1:detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-    LSAN_OPTIONS=suppressions="$PWD/tests/sanitizers/lsan.supp" \
+    LSAN_OPTIONS=suppressions="$PWD/tests/sanitizers/lsan.supp":print_suppressions=0 \
     ctest --test-dir "$asan" --output-on-failure -j"$jobs" --timeout 600
 
   stage tsan
