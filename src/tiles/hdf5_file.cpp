@@ -103,7 +103,52 @@ std::string object_or_root(std::string_view object) {
   return object.empty() ? std::string("/") : std::string(object);
 }
 
+TransferCounts counts_;
+
+// The data transfer property list of a transfer: MPI-IO collective, or none (H5P_DEFAULT).
+Handle transfer_list(bool collective) {
+#ifdef H5_HAVE_PARALLEL
+  if (collective) {
+    Handle dxpl(H5Pcreate(H5P_DATASET_XFER));
+    H5Pset_dxpl_mpio(dxpl.get(), H5FD_MPIO_COLLECTIVE);
+    return dxpl;
+  }
+#else
+  (void)collective;
+#endif
+  return Handle();
+}
+
+hid_t list_or_default(const Handle& dxpl) { return dxpl.valid() ? dxpl.get() : H5P_DEFAULT; }
+
+// Counts a collective transfer, and whether libhdf5 had to make it independently after all.
+void count_transfer(const Handle& dxpl) {
+#ifdef H5_HAVE_PARALLEL
+  if (!dxpl.valid()) return;
+  std::uint32_t local = 0, global = 0;
+  if (H5Pget_mpio_no_collective_cause(dxpl.get(), &local, &global) < 0) return;
+  if (global == H5D_MPIO_COLLECTIVE) {
+    ++counts_.collective;
+  } else {
+    ++counts_.fell_back;
+    counts_.last_cause = global;
+  }
+#else
+  (void)dxpl;
+#endif
+}
+
+// A memory space of no elements for a collective transfer a rank takes part in with nothing.
+Handle empty_space(int rank, hsize_t width) {
+  const hsize_t dims[2] = {1, width};
+  Handle space(H5Screate_simple(rank, dims, nullptr));
+  H5Sselect_none(space.get());
+  return space;
+}
+
 }  // namespace
+
+TransferCounts transfer_counts() { return counts_; }
 
 Type to_h5(io::ScalarType t) {
   switch (t) {
@@ -197,7 +242,9 @@ File File::open_parallel(const std::filesystem::path& path, const void* mpi_comm
     throw io::IoError(path.string() + ": cannot set up the MPI-IO driver");
   Handle h(H5Fopen(path.c_str(), H5F_ACC_RDWR, fapl.get()));
   if (!h.valid()) throw io::IoError(path.string() + ": cannot open HDF5 file on every rank (damaged or locked)");
-  return File(path, std::move(h));
+  File f(path, std::move(h));
+  f.parallel_ = true;
+  return f;
 #else
   (void)mpi_comm;
   throw io::IoError(path.string() + ": this build has no parallel HDF5 (configure with -DPOINTFAIR_MPI=ON)");
@@ -439,30 +486,63 @@ std::uint64_t Dataset::element_bytes() const {
   return H5Tget_size(type.get());
 }
 
-void Dataset::read_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, void* out) const {
-  if (count == 0) return;
+bool Dataset::together(Transfer transfer) const {
+  return transfer == Transfer::Collective && file_->parallel();
+}
+
+void Dataset::read_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, void* out,
+                            Transfer transfer) const {
+  const bool collective = together(transfer);
+  if (count == 0 && !collective) return;
   if (first + count > rows_) fail("rows out of range");
   Handle file_space(H5Dget_space(handle_.get()));
   const hsize_t start[2] = {first, 0}, extent[2] = {count, width_};
-  H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, extent, nullptr);
-  Handle mem_space(H5Screate_simple(rank_, extent, nullptr));
-  if (H5Dread(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), H5P_DEFAULT, out) < 0)
+  Handle mem_space;
+  double nothing = 0.0;
+  if (count == 0) {
+    H5Sselect_none(file_space.get());
+    mem_space = empty_space(rank_, width_);
+    out = &nothing;
+  } else {
+    H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, extent, nullptr);
+    mem_space = Handle(H5Screate_simple(rank_, extent, nullptr));
+  }
+  const Handle dxpl = transfer_list(collective);
+  if (H5Dread(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), list_or_default(dxpl), out) < 0)
     fail("read failed (rows " + std::to_string(first) + ".." + std::to_string(first + count) + ")");
+  count_transfer(dxpl);
 }
 
-void Dataset::write_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, const void* data) {
-  if (count == 0) return;
+void Dataset::write_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, const void* data,
+                             Transfer transfer) {
+  const bool collective = together(transfer);
+  if (count == 0 && !collective) return;
   if (first + count > rows_) fail("rows out of range");
   Handle file_space(H5Dget_space(handle_.get()));
   const hsize_t start[2] = {first, 0}, extent[2] = {count, width_};
-  H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, extent, nullptr);
-  Handle mem_space(H5Screate_simple(rank_, extent, nullptr));
-  if (H5Dwrite(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), H5P_DEFAULT, data) < 0)
+  Handle mem_space;
+  const double nothing = 0.0;
+  if (count == 0) {
+    H5Sselect_none(file_space.get());
+    mem_space = empty_space(rank_, width_);
+    data = &nothing;
+  } else {
+    H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, extent, nullptr);
+    mem_space = Handle(H5Screate_simple(rank_, extent, nullptr));
+  }
+  const Handle dxpl = transfer_list(collective);
+  if (H5Dwrite(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), list_or_default(dxpl), data) < 0)
     fail("write failed (rows " + std::to_string(first) + ".." + std::to_string(first + count) + ")");
+  count_transfer(dxpl);
 }
 
-void Dataset::read_selected_raw(std::span<const std::uint64_t> rows, Type memory, void* out) const {
-  if (rows.empty()) return;
+void Dataset::read_selected_raw(std::span<const std::uint64_t> rows, Type memory, void* out,
+                                Transfer transfer) const {
+  const bool collective = together(transfer);
+  if (rows.empty()) {
+    if (collective) read_rows_raw(0, 0, memory, out, transfer);
+    return;
+  }
   // Runs of consecutive rows become one hyperslab block each: far cheaper than point
   // selections for the clustered rows of a halo.
   Handle file_space(H5Dget_space(handle_.get()));
@@ -497,8 +577,10 @@ void Dataset::read_selected_raw(std::span<const std::uint64_t> rows, Type memory
   }
   const hsize_t mem_dims[2] = {rows.size(), width_};
   Handle mem_space(H5Screate_simple(rank_, mem_dims, nullptr));
-  if (H5Dread(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), H5P_DEFAULT, out) < 0)
+  const Handle dxpl = transfer_list(collective);
+  if (H5Dread(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), list_or_default(dxpl), out) < 0)
     fail("read failed (" + std::to_string(rows.size()) + " selected rows)");
+  count_transfer(dxpl);
 }
 
 }  // namespace pointfair::tiles::h5

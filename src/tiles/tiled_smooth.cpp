@@ -1,6 +1,7 @@
 #include "pointfair/tiles/tiled_smooth.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -102,6 +103,8 @@ class Run {
   void release();
   void commit_state();
   void balance(bool with_halo);
+  std::uint64_t my_tiles() const;
+  std::uint64_t tiles_to_write() const;
   std::uint64_t my_first_row() const { return tiles_.offsets[first_tile_]; }
   std::uint64_t my_end_row() const { return tiles_.offsets[end_tile_]; }
   void build_neighbors();
@@ -228,6 +231,20 @@ void Run::release() {
     if (ranks_->rank() == 0) file_.emplace(h5::File::open(partial_name(output_), true));
   }
   shared_ = false;
+}
+
+// Collective writes: every rank writes as many tiles as the rank with the most non-empty
+// tiles, the missing ones as empty selections (h5::Transfer::Collective).
+std::uint64_t Run::my_tiles() const {
+  std::uint64_t mine = 0;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) mine += tiles_.rows(t) > 0;
+  return mine;
+}
+
+std::uint64_t Run::tiles_to_write() const {
+  std::array<std::uint64_t, 1> most = {my_tiles()};
+  ranks_->max(most);
+  return most[0];
 }
 
 void Run::balance(bool with_halo) {
@@ -500,6 +517,7 @@ void Run::build_neighbors() {
   const std::size_t stride = static_cast<std::size_t>(k());
   h5::Dataset halo_ds = file().dataset(layout::neighbor_halo_counts);
   std::vector<std::uint32_t> out, outside;
+  const std::uint64_t writes = tiles_to_write();
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t rows = tiles_.rows(t);
     if (rows == 0) continue;
@@ -529,8 +547,8 @@ void Run::build_neighbors() {
         for (std::size_t j = 0; j < stride; ++j)
           out[r * stride + j] = j < nb.counts[r] ? static_cast<std::uint32_t>(local.rows[nb.indices[r * stride + j]]) : 0u;
       account(local.bytes() + local.positions.size() * 16 + bytes(nb.indices) + bytes(nb.counts) + bytes(out));
-      rows_ds.write_rows(tiles_.offsets[t], rows, out.data());
-      counts_ds.write_rows(tiles_.offsets[t], rows, nb.counts.data());
+      rows_ds.write_rows(tiles_.offsets[t], rows, out.data(), h5::Transfer::Collective);
+      counts_ds.write_rows(tiles_.offsets[t], rows, nb.counts.data(), h5::Transfer::Collective);
       // The halo a step reads: the distinct neighbours outside the tile (balances the steps).
       outside.clear();
       for (std::size_t r = 0; r < nb.size(); ++r)
@@ -541,10 +559,15 @@ void Run::build_neighbors() {
       std::sort(outside.begin(), outside.end());
       const std::uint64_t halo_count =
           static_cast<std::uint64_t>(std::unique(outside.begin(), outside.end()) - outside.begin());
-      halo_ds.write_rows(t, 1, &halo_count);
+      halo_ds.write_rows(t, 1, &halo_count, h5::Transfer::Collective);
       break;
     }
     progress("neighbors", t + 1 - first_tile_, end_tile_ - first_tile_);
+  }
+  for (std::uint64_t w = my_tiles(); w < writes; ++w) {
+    rows_ds.write_rows<std::uint32_t>(0, 0, nullptr, h5::Transfer::Collective);
+    counts_ds.write_rows<std::uint16_t>(0, 0, nullptr, h5::Transfer::Collective);
+    halo_ds.write_rows<std::uint64_t>(0, 0, nullptr, h5::Transfer::Collective);
   }
   if (ranks_->rank() == 0) file().dataset(layout::run_eps).write_rows(0, 1, &eps_);
   state_[kNeighborsDone] = 1;
@@ -720,6 +743,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
   std::vector<Vec3> local, next;
   TileNeighbors scratch;
   h5::Dataset log = file().dataset(layout::run_step_log);
+  const std::uint64_t writes = tiles_to_write();
   int committed_here = 0;
   // The automatic stop compares each step's lambda with the input's (logged as step 0's).
   double lambda_input = 0.0;
@@ -751,7 +775,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       const StepStats stats =
           euler_step(local, nb.local, std::span<const Index>(identity.data(), rows), params_.flow, lambda, next);
       degenerate += stats.degenerate;
-      target.write_rows(begin, rows, next.data()->data());
+      target.write_rows(begin, rows, next.data()->data(), h5::Transfer::Collective);
       if (every_step) {
         auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
         for (; it != gather_rows_.end() && *it < begin + rows; ++it)
@@ -760,6 +784,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       largest_local_ = std::max<std::uint64_t>(largest_local_, local.size());
       account(bytes(local) + bytes(next) + (caching_ ? 0 : scratch.bytes()) + bytes(identity));
     }
+    for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
     if (every_step && ranks_->size() > 1) {
       // Each rank updated the sample's positions in its own tiles: exchange them.
       const auto first = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), my_first_row()) - gather_rows_.begin();
@@ -818,6 +843,8 @@ std::size_t Run::write_attributes(double lambda) {
   TileNeighbors scratch;
   Neighborhoods extended;
   std::size_t degenerate = 0;
+  const std::uint64_t writes = tiles_to_write();
+  constexpr h5::Transfer together = h5::Transfer::Collective;
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t rows = tiles_.rows(t), begin = tiles_.offsets[t];
     if (rows == 0) continue;
@@ -846,18 +873,22 @@ std::size_t Run::write_attributes(double lambda) {
     vlap.assign(pa.laplacian_norm.begin(), pa.laplacian_norm.begin() + static_cast<std::ptrdiff_t>(rows));
     vfeature.resize(rows);
     for (std::size_t i = 0; i < rows; ++i) vfeature[i] = static_cast<std::uint8_t>(pa.feature[i]);
-    normal.write_rows(begin, rows, vn.data()->data());
-    d1.write_rows(begin, rows, vd1.data()->data());
-    d2.write_rows(begin, rows, vd2.data()->data());
-    k1.write_rows(begin, rows, vk1.data());
-    k2.write_rows(begin, rows, vk2.data());
-    mean.write_rows(begin, rows, vmean.data());
-    lap.write_rows(begin, rows, vlap.data());
-    feature.write_rows(begin, rows, vfeature.data());
+    normal.write_rows(begin, rows, vn.data()->data(), together);
+    d1.write_rows(begin, rows, vd1.data()->data(), together);
+    d2.write_rows(begin, rows, vd2.data()->data(), together);
+    k1.write_rows(begin, rows, vk1.data(), together);
+    k2.write_rows(begin, rows, vk2.data(), together);
+    mean.write_rows(begin, rows, vmean.data(), together);
+    lap.write_rows(begin, rows, vlap.data(), together);
+    feature.write_rows(begin, rows, vfeature.data(), together);
     account(bytes(local) + bytes(extended.indices) + bytes(extended.counts) +
             pa.normal.size() * (9 * sizeof(double) + 4 * sizeof(double) + 1) + 3 * bytes(vn) + 4 * bytes(vk1) +
             bytes(vfeature) + (caching_ ? 0 : scratch.bytes()));
     progress("attributes", t + 1 - first_tile_, end_tile_ - first_tile_);
+  }
+  for (std::uint64_t w = my_tiles(); w < writes; ++w) {
+    for (h5::Dataset* d : {&normal, &d1, &d2, &k1, &k2, &mean, &lap}) d->write_rows<double>(0, 0, nullptr, together);
+    feature.write_rows<std::uint8_t>(0, 0, nullptr, together);
   }
   return static_cast<std::size_t>(ranks_->sum(degenerate));
 }

@@ -7,10 +7,16 @@
 // (MPI_Abort) with "pointfair_mpi: rank R of N: <problem>"; the committed steps stay in
 // OUT.partial, and --resume continues them with any number of ranks.
 //
+// Every rank writes the neighbour lists, each step's positions and the attributes with
+// collective parallel HDF5 transfers; the summary counts them.
+//
 // Test hooks (environment): POINTFAIR_MPI_STOP_AFTER_STEPS=S stops every rank after S steps
 // committed by this call, as if killed; POINTFAIR_MPI_FAIL_AT=R:S makes rank R fail right
-// after step S was committed (the others are then waiting in step S + 1).
+// after step S was committed (the others are then waiting in step S + 1);
+// POINTFAIR_MPI_KILL_AT=R:S makes rank R kill itself with SIGKILL there instead (no message,
+// no MPI_Abort: the launcher must notice and end the job).
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -23,6 +29,7 @@
 #include "cli/out_of_core.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/parallel.hpp"
+#include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/tiles/mpi_ranks.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
@@ -34,15 +41,14 @@ using namespace pointfair;
 
 constexpr const char* kProgram = "pointfair_mpi";
 
-// "R:S" of POINTFAIR_MPI_FAIL_AT, or {-1, -1}.
-std::pair<int, int> injected_failure() {
-  const char* v = std::getenv("POINTFAIR_MPI_FAIL_AT");
+// "R:S" of the environment variable `name` (a test hook), or {-1, -1}.
+std::pair<int, int> injected_failure(const char* name) {
+  const char* v = std::getenv(name);
   if (v == nullptr) return {-1, -1};
   const std::string s = v;
   const std::size_t colon = s.find(':');
-  if (colon == std::string::npos) throw cli::UsageError("POINTFAIR_MPI_FAIL_AT must be RANK:STEP");
-  return {cli::parse_int(s.substr(0, colon), "POINTFAIR_MPI_FAIL_AT"),
-          cli::parse_int(s.substr(colon + 1), "POINTFAIR_MPI_FAIL_AT")};
+  if (colon == std::string::npos) throw cli::UsageError(std::string(name) + " must be RANK:STEP");
+  return {cli::parse_int(s.substr(0, colon), name), cli::parse_int(s.substr(colon + 1), name)};
 }
 
 int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
@@ -74,19 +80,28 @@ int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
   set_thread_count(threads);
   if (const char* stop = std::getenv("POINTFAIR_MPI_STOP_AFTER_STEPS"))
     options.stop_after_steps = cli::parse_int(stop, "POINTFAIR_MPI_STOP_AFTER_STEPS");
-  const auto [fail_rank, fail_step] = injected_failure();
+  const auto [fail_rank, fail_step] = injected_failure("POINTFAIR_MPI_FAIL_AT");
+  const auto [kill_rank, kill_step] = injected_failure("POINTFAIR_MPI_KILL_AT");
   const bool talk = !quiet && ranks.rank() == 0;
   options.ranks = &ranks;
   options.progress = [&](const std::string& phase, std::uint64_t done, std::uint64_t total) {
     if (phase != "step") return;
     if (ranks.rank() == fail_rank && static_cast<int>(done) == fail_step)
       throw io::IoError(output + ": failure injected by POINTFAIR_MPI_FAIL_AT after step " + std::to_string(done));
+    if (ranks.rank() == kill_rank && static_cast<int>(done) == kill_step) std::raise(SIGKILL);
     if (talk) std::fprintf(stderr, "%s: step %llu/%llu\n", kProgram, static_cast<unsigned long long>(done),
                            static_cast<unsigned long long>(total));
   };
   const auto t0 = std::chrono::steady_clock::now();
   const tiles::OutOfCoreReport report = tiles::smooth_out_of_core(input, output, params, options);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // Every rank's collective HDF5 transfers, and those libhdf5 made independently after all.
+  const tiles::h5::TransferCounts transfers = tiles::h5::transfer_counts();
+  const std::uint64_t collective = ranks.sum(transfers.collective), fell_back = ranks.sum(transfers.fell_back);
+  if (talk && (collective > 0 || fell_back > 0))
+    std::fprintf(stderr, "%s: %llu collective HDF5 transfers over the ranks, %llu made independently%s\n", kProgram,
+                 static_cast<unsigned long long>(collective), static_cast<unsigned long long>(fell_back),
+                 fell_back > 0 ? (" (cause bits " + std::to_string(transfers.last_cause) + ")").c_str() : "");
   if (talk)
     std::fprintf(stderr,
                  "%s: %llu points in %zu tiles (halos %.1f%% of the points) on %d ranks, %d steps (%d resumed)%s "

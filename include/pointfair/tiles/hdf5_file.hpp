@@ -4,7 +4,8 @@
 //
 // Thread-safety: libhdf5 (serial build) is not thread-safe; keep every call on one thread.
 // Processes: builds with -DPOINTFAIR_MPI=ON link parallel HDF5, and File::open_parallel opens
-// one file on every rank of an MPI job.
+// one file on every rank of an MPI job; its reads and writes are independent or collective
+// (Transfer). The serial libhdf5 has no MPI-IO: there every transfer is independent.
 #include <cstdint>
 #include <filesystem>
 #include <span>
@@ -70,6 +71,25 @@ struct DatasetOptions {
   bool allocate_early = false;
 };
 
+/// How a dataset transfer on a file opened by every rank (File::open_parallel) is made:
+/// Independent, by this process alone; Collective (MPI-IO collective, H5FD_MPIO_COLLECTIVE),
+/// together with every rank of the communicator, which must all make the same collective
+/// calls on the same datasets in the same order (a rank with nothing to move takes part with
+/// count 0 or no rows: an empty selection). Lets the MPI-IO layer merge the ranks' requests
+/// into few large file accesses. A file opened by one process transfers independently
+/// whatever is asked.
+enum class Transfer { Independent, Collective };
+
+/// Collective transfers made by this process so far, and those libhdf5 carried out
+/// independently instead (with the reason bits of the last one, H5D_mpio_no_collective_cause_t).
+/// Process-wide; HDF5 calls stay on one thread.
+struct TransferCounts {
+  std::uint64_t collective = 0;
+  std::uint64_t fell_back = 0;
+  std::uint32_t last_cause = 0;
+};
+TransferCounts transfer_counts();
+
 class File;
 
 /// A dataset of `rows` rows of `width` elements each (shape [rows] when width is 1 and the
@@ -86,18 +106,20 @@ class Dataset {
   std::uint64_t element_bytes() const;
 
   /// Rows [first, first + count) into `out` (count * width elements), converted to T.
+  /// Collective transfers with count 0 take part with an empty selection (`out` unused).
   template <class T>
-  void read_rows(std::uint64_t first, std::uint64_t count, T* out) const {
-    read_rows_raw(first, count, type_of<T>(), out);
+  void read_rows(std::uint64_t first, std::uint64_t count, T* out, Transfer transfer = Transfer::Independent) const {
+    read_rows_raw(first, count, type_of<T>(), out, transfer);
   }
   template <class T>
-  void write_rows(std::uint64_t first, std::uint64_t count, const T* data) {
-    write_rows_raw(first, count, type_of<T>(), data);
+  void write_rows(std::uint64_t first, std::uint64_t count, const T* data,
+                  Transfer transfer = Transfer::Independent) {
+    write_rows_raw(first, count, type_of<T>(), data, transfer);
   }
-  /// The rows listed in `rows` (any order, no duplicates needed) into `out`, row after row.
+  /// The rows listed in `rows` (strictly increasing) into `out`, row after row.
   template <class T>
-  void read_selected(std::span<const std::uint64_t> rows, T* out) const {
-    read_selected_raw(rows, type_of<T>(), out);
+  void read_selected(std::span<const std::uint64_t> rows, T* out, Transfer transfer = Transfer::Independent) const {
+    read_selected_raw(rows, type_of<T>(), out, transfer);
   }
   template <class T>
   std::vector<T> read_all() const {
@@ -109,9 +131,10 @@ class Dataset {
  private:
   friend class File;
   Dataset(const File* file, std::string path, Handle handle);
-  void read_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, void* out) const;
-  void write_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, const void* data);
-  void read_selected_raw(std::span<const std::uint64_t> rows, Type memory, void* out) const;
+  void read_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, void* out, Transfer transfer) const;
+  void write_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, const void* data, Transfer transfer);
+  void read_selected_raw(std::span<const std::uint64_t> rows, Type memory, void* out, Transfer transfer) const;
+  bool together(Transfer transfer) const;
   [[noreturn]] void fail(std::string_view problem) const;
 
   const File* file_;
@@ -131,12 +154,15 @@ class File {
   static File open(const std::filesystem::path& path, bool writable);
   /// Opens an existing file for reading and writing on every process of an MPI communicator,
   /// through the MPI-IO driver: a collective call (so are flush() and closing). `mpi_comm`
-  /// points to the MPI_Comm. Dataset reads and writes stay independent per process. Only in
-  /// builds against parallel HDF5 (parallel_available()); elsewhere throws IoError.
+  /// points to the MPI_Comm. Dataset transfers are independent unless asked to be
+  /// collective (Transfer). Only in builds against parallel HDF5 (parallel_available());
+  /// elsewhere throws IoError.
   static File open_parallel(const std::filesystem::path& path, const void* mpi_comm);
   static bool parallel_available();
 
   const std::filesystem::path& name() const { return name_; }
+  /// Opened by every rank of a communicator (open_parallel).
+  bool parallel() const { return parallel_; }
   hid id() const { return handle_.get(); }
 
   /// Writes every cached change to the file (H5Fflush) and syncs it to disk.
@@ -176,6 +202,7 @@ class File {
 
   std::filesystem::path name_;
   Handle handle_;
+  bool parallel_ = false;
 };
 
 }  // namespace pointfair::tiles::h5

@@ -3,6 +3,7 @@
 // message naming it, and the run resumes with another number of ranks, still bit-identical.
 #include <sys/wait.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -46,12 +47,23 @@ class MpiRunTest : public test::TempDirTest {
         << env << " timeout -k 5 60 " << POINTFAIR_MPIEXEC << " --oversubscribe -np " << ranks << " " << POINTFAIR_MPI_EXE
         << " smooth " << path("in.h5") << " " << path(out) << " --steps " << kSteps << " --threads 1"
         << (resume ? " --resume" : "") << " > " << path("log.txt") << " 2>&1";
+    const auto t0 = std::chrono::steady_clock::now();
     const int status = std::system(cmd.str().c_str());
+    seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     std::ifstream in(path("log.txt"));
     std::stringstream text;
     text << in.rdbuf();
     log_ = text.str();
     return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+
+  // The summary counts collective transfers over the ranks: some, none made independently.
+  void expect_collective_writes() const {
+    const std::string tail = " collective HDF5 transfers over the ranks, 0 made independently";
+    const std::size_t at = log_.find(tail);
+    ASSERT_NE(at, std::string::npos) << log_;
+    const std::size_t start = log_.rfind("pointfair_mpi: ", at) + std::strlen("pointfair_mpi: ");
+    EXPECT_GT(std::stoull(log_.substr(start, at - start)), 0u) << log_;
   }
 
   // Every dataset and attribute of the run, compared to the bit.
@@ -81,12 +93,14 @@ class MpiRunTest : public test::TempDirTest {
   }
 
   std::string log_;
+  double seconds_ = 0.0;  // of the last run_mpi
 };
 
 TEST_F(MpiRunTest, TwoRanksBitIdenticalToOneProcess) {
   run_serial("ref.h5");
   ASSERT_EQ(run_mpi(2, "out.h5"), 0) << log_;
   EXPECT_NE(log_.find("on 2 ranks"), std::string::npos) << log_;
+  expect_collective_writes();
   EXPECT_FALSE(std::filesystem::exists(partial_name(path("out.h5"))));
   expect_same_run("ref.h5", "out.h5");
 }
@@ -94,6 +108,7 @@ TEST_F(MpiRunTest, TwoRanksBitIdenticalToOneProcess) {
 TEST_F(MpiRunTest, ThreeRanksBitIdenticalToOneProcess) {
   run_serial("ref.h5");
   ASSERT_EQ(run_mpi(3, "out.h5"), 0) << log_;
+  expect_collective_writes();
   expect_same_run("ref.h5", "out.h5");
 }
 
@@ -108,6 +123,7 @@ TEST_F(MpiRunTest, MoreRanksThanTilesLeavesRanksIdleAndTheSameBits) {
   ASSERT_EQ(read_tile_table(h5::File::open(path("in.h5"), false)).size(), 2u);
   run_serial("ref.h5");
   ASSERT_EQ(run_mpi(3, "out.h5"), 0) << log_;
+  expect_collective_writes();  // the idle rank takes part with empty selections
   expect_same_run("ref.h5", "out.h5");
 }
 
@@ -135,6 +151,24 @@ TEST_F(MpiRunTest, FailingRankStopsTheJobAndTheRunResumesOnOtherRankCounts) {
   // Resumed on 3 ranks.
   ASSERT_EQ(run_mpi(3, "out.h5", "", true), 0) << log_;
   EXPECT_NE(log_.find("(2 resumed)"), std::string::npos) << log_;
+  expect_same_run("ref.h5", "out.h5");
+}
+
+TEST_F(MpiRunTest, RankKilledBySignalEndsTheJobAndTheRunResumesOnThreeRanks) {
+  run_serial("ref.h5");
+  // Rank 0 of 2 dies by SIGKILL after step 1 was committed (no message, no MPI_Abort), while
+  // rank 1 is in step 2's collective writes or its commit: mpirun must end the job.
+  const int code = run_mpi(2, "out.h5", "POINTFAIR_MPI_KILL_AT=0:1");
+  EXPECT_NE(code, 0) << log_;
+  EXPECT_LT(seconds_, 50.0) << "mpirun hung until the timeout: " << log_;
+  EXPECT_NE(log_.find("signal 9"), std::string::npos) << log_;
+  EXPECT_FALSE(std::filesystem::exists(path("out.h5")));
+  ASSERT_TRUE(std::filesystem::exists(partial_name(path("out.h5"))));
+  {
+    const h5::File partial = h5::File::open(partial_name(path("out.h5")), false);
+    EXPECT_EQ(partial.dataset("/run/state").read_all<std::int64_t>()[2], 1);  // rank 0 commits
+  }
+  ASSERT_EQ(run_mpi(3, "out.h5", "", true), 0) << log_;
   expect_same_run("ref.h5", "out.h5");
 }
 
