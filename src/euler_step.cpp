@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <cmath>
 #include <string>
@@ -57,80 +60,212 @@ PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
 
 namespace {
 
-// The step's hot path: one pass gathers the neighbour offsets into a small local array, the
-// covariance comes from that array, and the cut-off pass reads it again from cache. Same
-// formulas as evaluate_point (which the tests hold it against); evaluate_point is used where
-// the curvature is needed (feature gating) or the neighbourhood is unusually large.
+// The step's hot path. One pass gathers the neighbour offsets d_j = p_j - p into small local
+// arrays, one per coordinate (structure of arrays), padded with zeros to a whole block of
+// kBlock neighbours; the sums of the covariance and of the cut-off then run over a block at a
+// time, as kBlock / 2 independent pairs of lanes (GCC/Clang vector types: one SSE2 register
+// each; plain scalar code where there is none). Each lane always sums the same neighbours, in
+// the same order, so the bits depend on nothing but the inputs. A zero offset adds nothing to
+// any sum, so the padding changes no result. The cut-off is a mask, not a branch. Same
+// formulas as evaluate_point (which the tests hold it against, with the plain reference in
+// tests/support); evaluate_point classifies the points under feature gating and moves those
+// with an unusually large neighbourhood.
 constexpr std::size_t kLocalNeighbors = 64;
+constexpr std::size_t kBlock = 4;
+constexpr std::size_t kPairs = kBlock / 2;
+using Pair = double __attribute__((vector_size(2 * sizeof(double))));
+using PairBits = std::int64_t __attribute__((vector_size(2 * sizeof(double))));
+// One accumulator per pair of lanes of a block.
+using Sums = std::array<Pair, kPairs>;
+
+struct Offsets {
+  alignas(sizeof(Pair)) double x[kLocalNeighbors];
+  alignas(sizeof(Pair)) double y[kLocalNeighbors];
+  alignas(sizeof(Pair)) double z[kLocalNeighbors];
+};
+
+Pair load(const double* from) {
+  Pair v;
+  std::memcpy(&v, from, sizeof v);
+  return v;
+}
+Pair splat(double x) { return Pair{x, x}; }
+// The lanes in a fixed order: (0 + 2) + (1 + 3).
+double lane_sum(const Sums& s) {
+  const Pair t = s[0] + s[1];
+  return t[0] + t[1];
+}
+static_assert(kPairs == 2, "lane_sum adds two pairs");
+// Keeps the lanes of v whose mask is all ones, zeroes the others.
+Pair keep_if(Pair v, PairBits mask) {
+  return std::bit_cast<Pair>(std::bit_cast<PairBits>(v) & mask);
+}
+Pair abs_lanes(Pair v) {
+  constexpr std::int64_t kMagnitude = std::numeric_limits<std::int64_t>::max();  // all but the sign
+  return std::bit_cast<Pair>(std::bit_cast<PairBits>(v) & kMagnitude);
+}
 
 struct Displacement {
   Vec3 value = Vec3::Zero();
   bool valid = false;
 };
 
+// What the step does, resolved once per call rather than per point.
+enum class Kernel { Umbrella, IsotropicNormal, SharpPoint, SharpPlane, Continuous };
+
+Kernel kernel_of(const FlowParams& params) {
+  if (params.flow == Flow::Isotropic) return params.constrain_normal ? Kernel::IsotropicNormal : Kernel::Umbrella;
+  if (params.cutoff == Cutoff::Continuous) return Kernel::Continuous;
+  return params.cutoff_origin == CutoffOrigin::Plane ? Kernel::SharpPlane : Kernel::SharpPoint;
+}
+
+template <Kernel K>
 Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
                                std::span<const Vec3> points, const FlowParams& params,
-                               double lambda) {
+                               double lambda, Offsets& d) {
   Displacement out;
   const std::size_t m = neighbors.size();
   if (m == 0) return out;
-  std::array<Vec3, kLocalNeighbors> d;
-  Vec3 sum = Vec3::Zero();
+  const double px = p.x(), py = p.y(), pz = p.z();
   for (std::size_t j = 0; j < m; ++j) {
-    d[j] = points[neighbors[j]] - p;
-    sum += d[j];
+    const double* q = points[neighbors[j]].data();
+    d.x[j] = q[0] - px;
+    d.y[j] = q[1] - py;
+    d.z[j] = q[2] - pz;
   }
+  const std::size_t padded = (m + kBlock - 1) / kBlock * kBlock;
+  for (std::size_t j = m; j < padded; ++j) d.x[j] = d.y[j] = d.z[j] = 0.0;
+
+  Sums sx{}, sy{}, sz{};
+  Sums sxx{}, sxy{}, sxz{}, syy{}, syz{}, szz{};
+  for (std::size_t j = 0; j < padded; j += kBlock) {
+    for (std::size_t h = 0; h < kPairs; ++h) {
+      const Pair x = load(d.x + j + 2 * h), y = load(d.y + j + 2 * h), z = load(d.z + j + 2 * h);
+      sx[h] += x;
+      sy[h] += y;
+      sz[h] += z;
+      if constexpr (K != Kernel::Umbrella) {
+        sxx[h] += x * x;
+        sxy[h] += x * y;
+        sxz[h] += x * z;
+        syy[h] += y * y;
+        syz[h] += y * z;
+        szz[h] += z * z;
+      }
+    }
+  }
+  const Vec3 sum(lane_sum(sx), lane_sum(sy), lane_sum(sz));
   const double inv_m = 1.0 / static_cast<double>(m);
-  if (params.flow == Flow::Isotropic && !params.constrain_normal) {
+  if constexpr (K == Kernel::Umbrella) {
     // The umbrella operator needs no frame.
     out.value = params.tau * (sum * inv_m);
     out.valid = true;
     return out;
-  }
-  double xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0;
-  for (std::size_t j = 0; j < m; ++j) {
-    const Vec3& v = d[j];
-    xx += v.x() * v.x();
-    xy += v.x() * v.y();
-    xz += v.x() * v.z();
-    yy += v.y() * v.y();
-    yz += v.y() * v.z();
-    zz += v.z() * v.z();
-  }
-  const double count = static_cast<double>(m + 1);
-  const Vec3 mean = sum / count;
-  Eigen::Matrix3d covariance;
-  covariance << xx / count, xy / count, xz / count,  //
-      xy / count, yy / count, yz / count,            //
-      xz / count, yz / count, zz / count;
-  covariance -= mean * mean.transpose();
-  const NormalEstimate estimate = normal_from_covariance(covariance);
-  if (!estimate.valid || m < 2) return out;
-  const Vec3& n = estimate.normal;
-  Vec3 a = Vec3::Zero();
-  if (params.flow == Flow::Isotropic) {
-    a = sum;
   } else {
-    // The origin of the cut-off's curvatures relative to p (CutoffOrigin): p itself, or its
-    // foot on the PCA plane through the barycentre p + mean.
-    const Vec3 shift = params.cutoff_origin == CutoffOrigin::Plane ? Vec3(n.dot(mean) * n)
-                                                                   : Vec3(Vec3::Zero());
-    for (std::size_t j = 0; j < m; ++j) {
-      // |kappa| < lambda  <=>  2 |<n, d>| < lambda |d|^2: the kept neighbours need no division.
-      const Vec3 e = d[j] - shift;
-      const double len2 = e.squaredNorm();
-      const double twice_nd = 2.0 * std::abs(n.dot(e));
-      if (twice_nd < lambda * len2 || len2 == 0.0) {
-        a += d[j];
-      } else if (params.cutoff == Cutoff::Continuous) {
-        a += cutoff_weight(twice_nd / len2, lambda, Cutoff::Continuous) * d[j];
+    // Covariance of {p} ∪ N about its barycentre p + mean (p itself is the offset 0).
+    const double inv_count = 1.0 / static_cast<double>(m + 1);
+    const Vec3 mean = sum * inv_count;
+    Eigen::Matrix3d covariance;
+    covariance(0, 0) = lane_sum(sxx) * inv_count - mean.x() * mean.x();
+    covariance(0, 1) = lane_sum(sxy) * inv_count - mean.x() * mean.y();
+    covariance(0, 2) = lane_sum(sxz) * inv_count - mean.x() * mean.z();
+    covariance(1, 1) = lane_sum(syy) * inv_count - mean.y() * mean.y();
+    covariance(1, 2) = lane_sum(syz) * inv_count - mean.y() * mean.z();
+    covariance(2, 2) = lane_sum(szz) * inv_count - mean.z() * mean.z();
+    covariance(1, 0) = covariance(0, 1);
+    covariance(2, 0) = covariance(0, 2);
+    covariance(2, 1) = covariance(1, 2);
+    const NormalEstimate estimate = normal_from_covariance(covariance);
+    if (!estimate.valid || m < 2) return out;
+    const Vec3& n = estimate.normal;
+    Vec3 a = Vec3::Zero();
+    if constexpr (K == Kernel::IsotropicNormal) {
+      a = sum;
+    } else if constexpr (K == Kernel::Continuous) {
+      const Vec3 shift = params.cutoff_origin == CutoffOrigin::Plane ? Vec3(n.dot(mean) * n)
+                                                                     : Vec3(Vec3::Zero());
+      for (std::size_t j = 0; j < m; ++j) {
+        const Vec3 dj(d.x[j], d.y[j], d.z[j]);
+        const Vec3 e = dj - shift;
+        const double len2 = e.squaredNorm();
+        const double twice_nd = 2.0 * std::abs(n.dot(e));
+        if (twice_nd < lambda * len2 || len2 == 0.0) {
+          a += dj;
+        } else {
+          a += cutoff_weight(twice_nd / len2, lambda, Cutoff::Continuous) * dj;
+        }
       }
+    } else {
+      // Sharp cut-off: |kappa| < lambda  <=>  2 |<n, e>| < lambda |e|^2 (no division), with e
+      // the offset from the origin of the curvatures (CutoffOrigin): p itself, or its foot on
+      // the PCA plane through the barycentre p + mean. The motion is still toward d.
+      const Pair nx = splat(n.x()), ny = splat(n.y()), nz = splat(n.z());
+      const Pair half_lambda = splat(0.5 * lambda);
+      const Pair tiny = splat(std::numeric_limits<double>::denorm_min());
+      const double height = K == Kernel::SharpPlane ? n.dot(mean) : 0.0;
+      const Pair hx = splat(height * n.x()), hy = splat(height * n.y()), hz = splat(height * n.z());
+      Sums ax{}, ay{}, az{};
+      for (std::size_t j = 0; j < padded; j += kBlock) {
+        for (std::size_t h = 0; h < kPairs; ++h) {
+          const Pair x = load(d.x + j + 2 * h), y = load(d.y + j + 2 * h), z = load(d.z + j + 2 * h);
+          Pair ex = x, ey = y, ez = z;
+          if constexpr (K == Kernel::SharpPlane) {
+            ex -= hx;
+            ey -= hy;
+            ez -= hz;
+          }
+          const Pair len2 = ex * ex + ey * ey + ez * ez;
+          const Pair abs_nd = abs_lanes(nx * ex + ny * ey + nz * ez);
+          // Kept: 2 |<n, e>| < lambda len2, or len2 == 0 (then <n, e> == 0 too); halving both
+          // sides is exact. One comparison says both: adding the smallest subnormal changes no
+          // normal threshold and makes a zero one positive (two masks or'ed together compile
+          // to scalar code).
+          const PairBits kept = abs_nd < half_lambda * len2 + tiny;
+          ax[h] += keep_if(x, kept);
+          ay[h] += keep_if(y, kept);
+          az[h] += keep_if(z, kept);
+        }
+      }
+      a = Vec3(lane_sum(ax), lane_sum(ay), lane_sum(az));
     }
+    a *= inv_m;
+    out.value = params.constrain_normal ? Vec3(params.tau * a.dot(n) * n) : Vec3(params.tau * a);
+    out.valid = true;
+    return out;
   }
-  a *= inv_m;
-  out.value = params.constrain_normal ? Vec3(params.tau * a.dot(n) * n) : Vec3(params.tau * a);
-  out.valid = true;
-  return out;
+}
+
+template <Kernel K>
+std::size_t step_rows(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+                      std::span<const Index> rows, const FlowParams& params, double lambda,
+                      bool gated, std::span<Vec3> next, std::size_t begin, std::size_t end) {
+  // Feature gating: the point's curvature decides between the flow K (edges, corners) and
+  // the isotropic Laplacian (smooth points), each from the same kernel as the ungated step.
+  constexpr Kernel kIsotropic = K == Kernel::IsotropicNormal ? K : Kernel::Umbrella;
+  const bool normal_only = params.constrain_normal;
+  std::size_t degenerate = 0;
+  Offsets offsets;
+  for (std::size_t r = begin; r < end; ++r) {
+    const Vec3& p = current[rows.empty() ? r : rows[r]];
+    const auto nb = neighborhoods.of(r);
+    Displacement d;
+    if (gated || nb.size() > kLocalNeighbors) {
+      const PointState s = evaluate_point(p, nb, current, params, lambda, gated);
+      if (!s.valid || nb.size() > kLocalNeighbors) {
+        d = {s.displacement, s.valid};
+      } else if (s.feature == FeatureClass::Smooth) {
+        d = normal_only ? fast_displacement<Kernel::IsotropicNormal>(p, nb, current, params, lambda, offsets)
+                        : fast_displacement<kIsotropic>(p, nb, current, params, lambda, offsets);
+      } else {
+        d = fast_displacement<K>(p, nb, current, params, lambda, offsets);
+      }
+    } else {
+      d = fast_displacement<K>(p, nb, current, params, lambda, offsets);
+    }
+    if (!d.valid) ++degenerate;
+    next[r] = p + d.value;
+  }
+  return degenerate;
 }
 
 }  // namespace
@@ -143,21 +278,19 @@ StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighbo
   require(rows.empty() || rows.size() == n, "euler_step: rows must match the neighbourhoods");
   require(!rows.empty() || current.size() == n, "euler_step: one neighbourhood row per point");
   std::atomic<std::size_t> degenerate_total{0};
-  const bool use_fast_path = !(params.feature_gated && params.features.mode != FeatureMode::None);
+  const bool gated = params.feature_gated && params.features.mode != FeatureMode::None;
+  const Kernel kernel = kernel_of(params);
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    const auto run = [&]<Kernel K>() {
+      return step_rows<K>(current, neighborhoods, rows, params, lambda, gated, next, begin, end);
+    };
     std::size_t degenerate = 0;
-    for (std::size_t r = begin; r < end; ++r) {
-      const Vec3& p = current[rows.empty() ? r : rows[r]];
-      const auto nb = neighborhoods.of(r);
-      if (use_fast_path && nb.size() <= kLocalNeighbors) {
-        const Displacement d = fast_displacement(p, nb, current, params, lambda);
-        if (!d.valid) ++degenerate;
-        next[r] = p + d.value;
-      } else {
-        const PointState s = evaluate_point(p, nb, current, params, lambda, false);
-        if (!s.valid) ++degenerate;
-        next[r] = p + s.displacement;
-      }
+    switch (kernel) {
+      case Kernel::Umbrella: degenerate = run.template operator()<Kernel::Umbrella>(); break;
+      case Kernel::IsotropicNormal: degenerate = run.template operator()<Kernel::IsotropicNormal>(); break;
+      case Kernel::SharpPoint: degenerate = run.template operator()<Kernel::SharpPoint>(); break;
+      case Kernel::SharpPlane: degenerate = run.template operator()<Kernel::SharpPlane>(); break;
+      case Kernel::Continuous: degenerate = run.template operator()<Kernel::Continuous>(); break;
     }
     degenerate_total.fetch_add(degenerate, std::memory_order_relaxed);
   }, 2048);

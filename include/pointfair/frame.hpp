@@ -29,9 +29,10 @@ struct Frame {
 Frame compute_frame(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points);
 
 /// The normal alone, for the Euler step's hot path: the unit eigenvector of the smallest
-/// eigenvalue of `covariance` from the closed-form (trigonometric) eigenvalues and a cross
-/// product of two rows of (covariance - c0 I). Where the eigenvalues are too close for that to
-/// be accurate (relative gap below 1e-4, or c2 below 1e-6 c1) it falls back to
+/// eigenvalue c0 of `covariance` (symmetric positive semi-definite), with c0 found by Newton's
+/// method on the characteristic polynomial and the vector as the largest cross product of two
+/// rows of (covariance - c0 I). Where the eigenvalues are too close for that to be accurate
+/// (relative gap c2 - c0 below 1e-4 c1, or c2 below 1e-6 c1) it falls back to
 /// frame_from_covariance, so `valid` always agrees with it.
 struct NormalEstimate {
   Vec3 normal = Vec3::UnitZ();
