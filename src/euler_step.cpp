@@ -61,27 +61,24 @@ PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
 namespace {
 
 // The step's hot path. One pass gathers the neighbour offsets d_j = p_j - p into small local
-// arrays, one per coordinate (structure of arrays), padded with zeros to a whole block of
-// kBlock neighbours; the sums of the covariance and of the cut-off then run over a block at a
-// time, as kBlock / 2 independent pairs of lanes (GCC/Clang vector types: one SSE2 register
-// each; plain scalar code where there is none). Each lane always sums the same neighbours, in
-// the same order, so the bits depend on nothing but the inputs. A zero offset adds nothing to
-// any sum, so the padding changes no result. The cut-off is a mask, not a branch. Same
-// formulas as evaluate_point (which the tests hold it against, with the plain reference in
+// arrays, one per coordinate (structure of arrays), padded with a zero to an even count; the
+// sums of the covariance and of the cut-off then run over two neighbours at a time (GCC/Clang
+// vector types: one SSE2 register, plain scalar code where there is none), one accumulator a
+// quantity (more would spill). Each lane always sums the same neighbours in the same order, so
+// the bits depend on nothing but the inputs. A zero offset adds nothing to any sum, so the
+// padding changes no result. The cut-off is a mask, not a branch. Same formulas as
+// evaluate_point (which the tests hold it against, with the plain reference in
 // tests/support); evaluate_point classifies the points under feature gating and moves those
 // with an unusually large neighbourhood.
 constexpr std::size_t kLocalNeighbors = 64;
-constexpr std::size_t kBlock = 4;
-constexpr std::size_t kPairs = kBlock / 2;
 using Pair = double __attribute__((vector_size(2 * sizeof(double))));
 using PairBits = std::int64_t __attribute__((vector_size(2 * sizeof(double))));
-// One accumulator per pair of lanes of a block.
-using Sums = std::array<Pair, kPairs>;
 
 struct Offsets {
-  alignas(sizeof(Pair)) double x[kLocalNeighbors];
-  alignas(sizeof(Pair)) double y[kLocalNeighbors];
-  alignas(sizeof(Pair)) double z[kLocalNeighbors];
+  // One more slot for the padding zero.
+  alignas(sizeof(Pair)) double x[kLocalNeighbors + 2];
+  alignas(sizeof(Pair)) double y[kLocalNeighbors + 2];
+  alignas(sizeof(Pair)) double z[kLocalNeighbors + 2];
 };
 
 Pair load(const double* from) {
@@ -90,12 +87,8 @@ Pair load(const double* from) {
   return v;
 }
 Pair splat(double x) { return Pair{x, x}; }
-// The lanes in a fixed order: (0 + 2) + (1 + 3).
-double lane_sum(const Sums& s) {
-  const Pair t = s[0] + s[1];
-  return t[0] + t[1];
-}
-static_assert(kPairs == 2, "lane_sum adds two pairs");
+// The two lanes: even and odd neighbours.
+double lane_sum(Pair s) { return s[0] + s[1]; }
 // Keeps the lanes of v whose mask is all ones, zeroes the others.
 Pair keep_if(Pair v, PairBits mask) {
   return std::bit_cast<Pair>(std::bit_cast<PairBits>(v) & mask);
@@ -133,25 +126,23 @@ Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
     d.y[j] = q[1] - py;
     d.z[j] = q[2] - pz;
   }
-  const std::size_t padded = (m + kBlock - 1) / kBlock * kBlock;
-  for (std::size_t j = m; j < padded; ++j) d.x[j] = d.y[j] = d.z[j] = 0.0;
+  d.x[m] = d.y[m] = d.z[m] = 0.0;
+  const std::size_t padded = (m + 1) / 2 * 2;
 
-  Sums sx{}, sy{}, sz{};
-  Sums sxx{}, sxy{}, sxz{}, syy{}, syz{}, szz{};
-  for (std::size_t j = 0; j < padded; j += kBlock) {
-    for (std::size_t h = 0; h < kPairs; ++h) {
-      const Pair x = load(d.x + j + 2 * h), y = load(d.y + j + 2 * h), z = load(d.z + j + 2 * h);
-      sx[h] += x;
-      sy[h] += y;
-      sz[h] += z;
-      if constexpr (K != Kernel::Umbrella) {
-        sxx[h] += x * x;
-        sxy[h] += x * y;
-        sxz[h] += x * z;
-        syy[h] += y * y;
-        syz[h] += y * z;
-        szz[h] += z * z;
-      }
+  Pair sx{}, sy{}, sz{};
+  Pair sxx{}, sxy{}, sxz{}, syy{}, syz{}, szz{};
+  for (std::size_t j = 0; j < padded; j += 2) {
+    const Pair x = load(d.x + j), y = load(d.y + j), z = load(d.z + j);
+    sx += x;
+    sy += y;
+    sz += z;
+    if constexpr (K != Kernel::Umbrella) {
+      sxx += x * x;
+      sxy += x * y;
+      sxz += x * z;
+      syy += y * y;
+      syz += y * z;
+      szz += z * z;
     }
   }
   const Vec3 sum(lane_sum(sx), lane_sum(sy), lane_sum(sz));
@@ -204,27 +195,25 @@ Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
       const Pair tiny = splat(std::numeric_limits<double>::denorm_min());
       const double height = K == Kernel::SharpPlane ? n.dot(mean) : 0.0;
       const Pair hx = splat(height * n.x()), hy = splat(height * n.y()), hz = splat(height * n.z());
-      Sums ax{}, ay{}, az{};
-      for (std::size_t j = 0; j < padded; j += kBlock) {
-        for (std::size_t h = 0; h < kPairs; ++h) {
-          const Pair x = load(d.x + j + 2 * h), y = load(d.y + j + 2 * h), z = load(d.z + j + 2 * h);
-          Pair ex = x, ey = y, ez = z;
-          if constexpr (K == Kernel::SharpPlane) {
-            ex -= hx;
-            ey -= hy;
-            ez -= hz;
-          }
-          const Pair len2 = ex * ex + ey * ey + ez * ez;
-          const Pair abs_nd = abs_lanes(nx * ex + ny * ey + nz * ez);
-          // Kept: 2 |<n, e>| < lambda len2, or len2 == 0 (then <n, e> == 0 too); halving both
-          // sides is exact. One comparison says both: adding the smallest subnormal changes no
-          // normal threshold and makes a zero one positive (two masks or'ed together compile
-          // to scalar code).
-          const PairBits kept = abs_nd < half_lambda * len2 + tiny;
-          ax[h] += keep_if(x, kept);
-          ay[h] += keep_if(y, kept);
-          az[h] += keep_if(z, kept);
+      Pair ax{}, ay{}, az{};
+      for (std::size_t j = 0; j < padded; j += 2) {
+        const Pair x = load(d.x + j), y = load(d.y + j), z = load(d.z + j);
+        Pair ex = x, ey = y, ez = z;
+        if constexpr (K == Kernel::SharpPlane) {
+          ex -= hx;
+          ey -= hy;
+          ez -= hz;
         }
+        const Pair len2 = ex * ex + ey * ey + ez * ez;
+        const Pair abs_nd = abs_lanes(nx * ex + ny * ey + nz * ez);
+        // Kept: 2 |<n, e>| < lambda len2, or len2 == 0 (then <n, e> == 0 too); halving both
+        // sides is exact. One comparison says both: adding the smallest subnormal changes no
+        // normal threshold and makes a zero one positive (two masks or'ed together compile to
+        // scalar code).
+        const PairBits kept = abs_nd < half_lambda * len2 + tiny;
+        ax += keep_if(x, kept);
+        ay += keep_if(y, kept);
+        az += keep_if(z, kept);
       }
       a = Vec3(lane_sum(ax), lane_sum(ay), lane_sum(az));
     }
