@@ -1,21 +1,44 @@
 // pointfair_throughput: end-to-end speed of the method on a generated cloud, as a table and
 // as JSON. Measures, in one run: neighbourhood build rate, point-steps per second of the
-// isotropic and the anisotropic step for 1..all threads, peak memory per point of an in-core
-// run beyond the input, and the time of a full default run.
+// isotropic and the anisotropic step (the paper's estimator) for 1..all threads with the CPU
+// time each used, peak memory per point of an in-core run beyond the input, the time of a full
+// default run, optionally the cost per point over several cloud sizes, and, when built with
+// CGAL (POINTFAIR_QUALITY_CGAL=ON and libcgal-dev), CGAL's jet and bilateral smoothers on the
+// same cloud with our anisotropic step's speed as a ratio to theirs.
 //
-//   pointfair_throughput [--points N] [--steps S] [--k K] [--json FILE]
+//   pointfair_throughput [--points N] [--steps S] [--k K] [--repeats R] [--json FILE]
+//                        [--sizes N1,N2,...] [--no-memory] [--no-cgal]
+//
+// Memory is measured in a child process forked before the parent starts any thread or fills
+// its heap: the child generates the cloud, returns its free heap to the system (malloc_trim),
+// resets its peak resident set (/proc/self/clear_refs) and runs the stage; the figure is the
+// peak resident set (VmHWM) minus the resident set before the stage. A process that had run
+// other stages before would reuse their freed pages and under-count.
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
+
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include "pointfair/parallel.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "pointfair/version.hpp"
+
+#if defined(POINTFAIR_HAVE_CGAL)
+#include "quality/cgal_peers.hpp"
+#endif
 
 namespace {
 
@@ -26,7 +49,15 @@ double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// Resident set size and its peak, in bytes (Linux /proc).
+// CPU time of the whole process (all threads), seconds.
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+// A field of /proc/self/status in kB, or -1.
 long long proc_status_kb(const char* key) {
   std::ifstream in("/proc/self/status");
   std::string line;
@@ -35,7 +66,6 @@ long long proc_status_kb(const char* key) {
     if (line.rfind(prefix, 0) == 0) return std::atoll(line.c_str() + prefix.size());
   return -1;
 }
-void reset_peak_rss() { std::ofstream("/proc/self/clear_refs") << "5"; }
 
 // A noisy closed surface with sharp edges: area-uniform samples of a cube, noise 0.5% of the
 // diagonal, in random order (the worst case for memory locality).
@@ -50,24 +80,121 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// The paper's estimator (FlowParams{}: curvatures from the point itself) for `steps` steps,
+// with no automatic stop, so that every run does the same number of steps.
+SmoothParams step_params(Flow flow, int k, int steps) {
+  SmoothParams params;
+  params.neighbors.k = k;
+  params.flow = FlowParams{};
+  params.flow.flow = flow;
+  params.steps = steps;
+  params.stop_lambda_ratio = 0.0;
+  return params;
+}
+
+enum class Stage { Neighbors, Smooth };
+
+// Peak resident bytes per point that `stage` adds to a process holding only the input cloud,
+// measured in a forked child (see the file comment); negative if it could not be measured.
+double stage_bytes_per_point(Stage stage, std::size_t points, int k) {
+  int fds[2];
+  if (pipe(fds) != 0) return -1.0;
+  const pid_t pid = fork();
+  if (pid < 0) return -1.0;
+  if (pid == 0) {
+    close(fds[0]);
+    std::vector<Vec3> cloud = make_cloud(points);
+#if defined(__GLIBC__)
+    malloc_trim(0);
+#endif
+    const long long generated_peak = proc_status_kb("VmHWM");
+    std::ofstream("/proc/self/clear_refs") << "5";
+    const long long before = proc_status_kb("VmRSS");
+    // clear_refs must have reset the peak to the current resident set (up to the few pages
+    // the stream buffers touch), or the figure is void.
+    const long long peak_now = proc_status_kb("VmHWM");
+    const bool reset = peak_now <= before + 1024 && (peak_now < generated_peak || generated_peak <= before + 1024);
+    if (stage == Stage::Neighbors) {
+      const Neighborhoods nb = build_neighborhoods(cloud, {.k = k});
+      if (nb.size() != points) _exit(3);
+    } else {
+      SmoothParams params = step_params(Flow::Anisotropic, k, 2);
+      smooth(cloud, params);
+    }
+    const long long peak = proc_status_kb("VmHWM");
+    const long long kb = reset && before >= 0 && peak >= 0 ? peak - before : -1;
+    const std::string text = std::to_string(kb);
+    const ssize_t written = write(fds[1], text.data(), text.size());
+    _exit(written == static_cast<ssize_t>(text.size()) ? 0 : 4);
+  }
+  close(fds[1]);
+  char buffer[64] = {};
+  const ssize_t got = read(fds[0], buffer, sizeof buffer - 1);
+  close(fds[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (got <= 0 || !WIFEXITED(status) || WEXITSTATUS(status) != 0) return -1.0;
+  const long long kb = std::atoll(buffer);
+  return kb < 0 ? -1.0 : 1024.0 * static_cast<double>(kb) / static_cast<double>(points);
+}
+
+std::vector<std::size_t> parse_sizes(const std::string& text) {
+  std::vector<std::size_t> sizes;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ','))
+    if (!item.empty()) sizes.push_back(std::strtoull(item.c_str(), nullptr, 10));
+  return sizes;
+}
+
+std::string number(double x) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.6g", x);
+  return buffer;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::size_t points = 1'000'000;
   int steps = 10, k = 16, repeats = 3;
   std::string json_path;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  std::vector<std::size_t> sizes;
+  bool memory = true, cgal = true;
+  for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--points") points = std::strtoull(argv[i + 1], nullptr, 10);
-    else if (a == "--steps") steps = std::atoi(argv[i + 1]);
-    else if (a == "--k") k = std::atoi(argv[i + 1]);
-    else if (a == "--repeats") repeats = std::atoi(argv[i + 1]);
-    else if (a == "--json") json_path = argv[i + 1];
+    const bool has_value = i + 1 < argc;
+    if (a == "--no-memory") memory = false;
+    else if (a == "--no-cgal") cgal = false;
+    else if (a == "--points" && has_value) points = std::strtoull(argv[++i], nullptr, 10);
+    else if (a == "--steps" && has_value) steps = std::atoi(argv[++i]);
+    else if (a == "--k" && has_value) k = std::atoi(argv[++i]);
+    else if (a == "--repeats" && has_value) repeats = std::atoi(argv[++i]);
+    else if (a == "--json" && has_value) json_path = argv[++i];
+    else if (a == "--sizes" && has_value) sizes = parse_sizes(argv[++i]);
     else {
-      std::fprintf(stderr, "usage: %s [--points N] [--steps S] [--k K] [--repeats R] [--json FILE]\n", argv[0]);
+      std::fprintf(stderr,
+                   "usage: %s [--points N] [--steps S] [--k K] [--repeats R] [--json FILE] "
+                   "[--sizes N1,N2,...] [--no-memory] [--no-cgal]\n", argv[0]);
       return 2;
     }
   }
+  if (points < 100 || steps < 1 || k < 2 || repeats < 1) {
+    std::fprintf(stderr, "%s: need --points >= 100, --steps >= 1, --k >= 2, --repeats >= 1\n", argv[0]);
+    return 2;
+  }
+
+  // Memory first: the children must be forked before this process starts worker threads.
+  double build_bytes = -1.0, smooth_bytes = -1.0;
+  if (memory) {
+    build_bytes = stage_bytes_per_point(Stage::Neighbors, points, k);
+    smooth_bytes = stage_bytes_per_point(Stage::Smooth, points, k);
+  }
+  // What the in-core run holds during its steps beyond the input, counted from the types:
+  // neighbour indices and counts, the second position buffer, the order and its inverse.
+  const double held_bytes = static_cast<double>(k * sizeof(Index) + sizeof(std::uint16_t) +
+                                                sizeof(Vec3) + 2 * sizeof(Index));
+
   const int cores = thread_count();
   const std::vector<Vec3> cloud = make_cloud(points);
   std::printf("pointfair %s throughput: %zu points (noisy cube, random order), k = %d, %d steps, "
@@ -82,44 +209,75 @@ int main(int argc, char** argv) {
   }
   const double build_rate = static_cast<double>(points) / median(build_times);
 
-  // Step rates per flow and thread count (the time of the steps only, as smooth() reports it).
-  struct Row { std::string flow; int threads; double rate; };
+  // Step rates per flow and thread count (the time of the steps only, as smooth() reports it,
+  // including the automatic lambda measured before each step), and the CPU time of the whole
+  // call over its wall time (how many cores it kept busy).
+  struct Row { std::string flow; int threads; double rate; double busy; };
   std::vector<Row> rows;
   for (const Flow flow : {Flow::Isotropic, Flow::Anisotropic}) {
     for (int threads = 1; threads <= cores; ++threads) {
       set_thread_count(threads);
-      std::vector<double> times;
+      std::vector<double> rates, busy;
       for (int r = 0; r < repeats; ++r) {
         std::vector<Vec3> positions = cloud;
-        SmoothParams params;
-        params.neighbors.k = k;
-        params.flow.flow = flow;
-        params.steps = steps;
-        const SmoothReport report = smooth(positions, params);
-        times.push_back(report.seconds_steps);
+        const double cpu0 = cpu_seconds();
+        const auto t0 = Clock::now();
+        const SmoothReport report = smooth(positions, step_params(flow, k, steps));
+        busy.push_back((cpu_seconds() - cpu0) / seconds_since(t0));
+        rates.push_back(static_cast<double>(points) * report.steps / report.seconds_steps);
       }
-      rows.push_back({flow == Flow::Isotropic ? "iso" : "aniso", threads,
-                      static_cast<double>(points) * steps / median(times)});
+      rows.push_back({flow == Flow::Isotropic ? "iso" : "aniso", threads, median(rates), median(busy)});
     }
   }
   set_thread_count(0);
+  double aniso_all = 0.0;
+  for (const Row& row : rows)
+    if (row.flow == "aniso" && row.threads == cores) aniso_all = row.rate;
 
-  // Peak memory of a full default run beyond the input cloud, and its time.
+  // A full default run (the method's defaults, automatic stop included).
   std::vector<Vec3> positions = cloud;
-  const long long rss_before = proc_status_kb("VmRSS");
-  reset_peak_rss();
   SmoothParams defaults;
   defaults.neighbors.k = k;
   const auto t0 = Clock::now();
   const SmoothReport full = smooth(positions, defaults);
   const double full_seconds = seconds_since(t0);
-  const long long peak = proc_status_kb("VmHWM");
-  const double bytes_per_point = 1024.0 * static_cast<double>(peak - rss_before) / static_cast<double>(points);
+
+  // Cost per point over cloud sizes (all threads): flat means no superlinear stage.
+  struct SizeRow { std::size_t points; double build_ns; double step_ns; };
+  std::vector<SizeRow> size_rows;
+  for (const std::size_t n : sizes) {
+    if (n < 100) continue;
+    const std::vector<Vec3> c = make_cloud(n);
+    const auto b0 = Clock::now();
+    const Neighborhoods nb = build_neighborhoods(c, {.k = k});
+    const double build_s = seconds_since(b0);
+    std::vector<Vec3> p = c;
+    const SmoothReport report = smooth(p, step_params(Flow::Anisotropic, k, steps));
+    size_rows.push_back({n, 1e9 * build_s / static_cast<double>(n),
+                         1e9 * report.seconds_steps / (static_cast<double>(n) * report.steps)});
+  }
+
+  // CGAL's smoothers on the same cloud, one pass each (all threads).
+  struct Peer { std::string name; double points_per_second; };
+  std::vector<Peer> peers;
+#if defined(POINTFAIR_HAVE_CGAL)
+  if (cgal) {
+    const auto j0 = Clock::now();
+    const std::vector<Vec3> jet = quality::cgal_jet_smooth(cloud, k, 1);
+    peers.push_back({"CGAL jet_smooth_point_set", static_cast<double>(points) / seconds_since(j0)});
+    const auto b0 = Clock::now();
+    const std::vector<Vec3> bilateral = quality::cgal_bilateral_smooth(cloud, k, 1);
+    peers.push_back({"CGAL bilateral_smooth_point_set (+ PCA normals, MST orientation)",
+                     static_cast<double>(points) / seconds_since(b0)});
+  }
+#else
+  (void)cgal;
+#endif
 
   std::printf("  neighbourhood build      %10.3g points/s (%d threads)\n", build_rate, cores);
   for (const auto& row : rows)
-    std::printf("  %-5s step, %d thread%s  %10.3g point-steps/s\n", row.flow.c_str(), row.threads,
-                row.threads > 1 ? "s" : " ", row.rate);
+    std::printf("  %-5s step, %d thread%s  %10.3g point-steps/s   (CPU %.2f of %d)\n", row.flow.c_str(),
+                row.threads, row.threads > 1 ? "s" : " ", row.rate, row.busy, row.threads);
   for (const char* flow : {"iso", "aniso"}) {
     double one = 0, all = 0;
     for (const auto& row : rows) {
@@ -129,19 +287,48 @@ int main(int argc, char** argv) {
     }
     std::printf("  %-5s speed-up %d vs 1 thread: %.2fx\n", flow, cores, one > 0 ? all / one : 0.0);
   }
-  std::printf("  full default run (%d steps): %.2f s; peak memory beyond the input: %.0f bytes/point\n",
-              full.steps, full_seconds, bytes_per_point);
+  std::printf("  full default run: %d steps%s, %.2f s\n", full.steps,
+              full.stopped_early ? " (automatic stop)" : "", full_seconds);
+  if (memory) {
+    std::printf("  memory beyond the input (peak resident set of a fresh child process):\n"
+                "    neighbourhood build %.0f bytes/point, in-core smooth %.0f bytes/point\n",
+                build_bytes, smooth_bytes);
+  }
+  std::printf("  arrays the in-core steps hold beyond the input (counted): %.0f bytes/point\n", held_bytes);
+  for (const auto& s : size_rows)
+    std::printf("  %9zu points: neighbourhood build %6.0f ns/point, aniso step %5.0f ns/point-step\n",
+                s.points, s.build_ns, s.step_ns);
+  for (const auto& peer : peers)
+    std::printf("  %s, k = %d, 1 pass: %.3g points/s; our aniso step is %.1fx faster\n",
+                peer.name.c_str(), k, peer.points_per_second, aniso_all / peer.points_per_second);
+#if !defined(POINTFAIR_HAVE_CGAL)
+  std::printf("  CGAL peers: not built (configure with -DPOINTFAIR_QUALITY_CGAL=ON and libcgal-dev)\n");
+#endif
 
   std::string json = "{\"points\": " + std::to_string(points) + ", \"k\": " + std::to_string(k) +
                      ", \"steps\": " + std::to_string(steps) + ", \"cores\": " + std::to_string(cores) +
-                     ", \"neighbor_build_points_per_second\": " + std::to_string(build_rate) +
+                     ", \"neighbor_build_points_per_second\": " + number(build_rate) +
                      ", \"steps_per_flow\": [";
   for (std::size_t i = 0; i < rows.size(); ++i)
     json += std::string(i ? ", " : "") + "{\"flow\": \"" + rows[i].flow + "\", \"threads\": " +
-            std::to_string(rows[i].threads) + ", \"point_steps_per_second\": " + std::to_string(rows[i].rate) + "}";
-  json += "], \"full_run_seconds\": " + std::to_string(full_seconds) +
-          ", \"full_run_steps\": " + std::to_string(full.steps) +
-          ", \"peak_bytes_per_point_beyond_input\": " + std::to_string(bytes_per_point) + "}";
+            std::to_string(rows[i].threads) + ", \"point_steps_per_second\": " + number(rows[i].rate) +
+            ", \"cpu_per_wall\": " + number(rows[i].busy) + "}";
+  json += "], \"full_run_seconds\": " + number(full_seconds) +
+          ", \"full_run_steps\": " + std::to_string(full.steps);
+  if (memory)
+    json += ", \"peak_bytes_per_point_neighbor_build\": " + number(build_bytes) +
+            ", \"peak_bytes_per_point_smooth\": " + number(smooth_bytes);
+  json += ", \"held_bytes_per_point_steps\": " + number(held_bytes) + ", \"sizes\": [";
+  for (std::size_t i = 0; i < size_rows.size(); ++i)
+    json += std::string(i ? ", " : "") + "{\"points\": " + std::to_string(size_rows[i].points) +
+            ", \"build_ns_per_point\": " + number(size_rows[i].build_ns) +
+            ", \"aniso_ns_per_point_step\": " + number(size_rows[i].step_ns) + "}";
+  json += "], \"peers\": [";
+  for (std::size_t i = 0; i < peers.size(); ++i)
+    json += std::string(i ? ", " : "") + "{\"name\": \"" + peers[i].name + "\", \"points_per_second\": " +
+            number(peers[i].points_per_second) + ", \"aniso_ratio\": " +
+            number(aniso_all / peers[i].points_per_second) + "}";
+  json += "]}";
   if (!json_path.empty()) std::ofstream(json_path) << json << "\n";
   std::printf("\n%s\n", json.c_str());
   return 0;
