@@ -2,7 +2,8 @@
 # The whole test suite, in stages (each prints its wall time):
 #   main       Release build (warnings as errors) of everything; every test with ctest
 #   mpi        pointfair_mpi (OpenMPI + parallel HDF5) under mpirun: 1-4 ranks bit-identical
-#              to the single-process run, failing ranks, resuming on other rank counts
+#              to the single-process run, failing ranks, resuming on other rank counts; the
+#              import on 1-4 ranks; the Slurm scripts (shellcheck, a run against stand-ins)
 #   asan       the whole suite again under AddressSanitizer + UndefinedBehaviorSanitizer (gcc
 #              -O1), but for the repeat of the core tests against the OpenMP back end
 #   tsan       ThreadSanitizer over the parallel kernels: the core with the std::thread back
@@ -36,6 +37,7 @@ if [ "${POINTFAIR_MPI_STAGE:-1}" != 0 ]; then
   cmake -S . -B "$mpi" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPOINTFAIR_WERROR=ON \
     -DPOINTFAIR_MPI=ON -DPOINTFAIR_BUILD_BENCH=OFF >/dev/null
   cmake --build "$mpi" -j"$jobs" --target pointfair_mpi pointfair_mpi_tests
+  shellcheck tools/slurm/pipeline.sh tools/slurm/smooth.sbatch tests/tiles/mpi/slurm_pipeline_test.sh
   OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
     ctest --test-dir "$mpi" --output-on-failure -j"$jobs" --timeout 300 -L mpi
 fi

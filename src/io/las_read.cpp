@@ -279,6 +279,15 @@ class LasChunkReader final : public PointChunkReader {
   std::optional<std::uint64_t> count() const override { return h_.point_count; }
 
  protected:
+  bool seek_over(std::uint64_t points) override {
+    // Records of h_.record_length bytes; the last one is read, not skipped, so that the
+    // EVLRs after it are read as usual.
+    if (points_read_ + points >= h_.point_count) return false;
+    const std::uint64_t bytes = points * h_.record_length;
+    if (reader_.skip(bytes) != bytes) fail(path_, "truncated point data");
+    return true;
+  }
+
   std::size_t append(PointTable& chunk, std::size_t max_points) override {
     const std::uint64_t left = h_.point_count - points_read_;
     const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(left, max_points));

@@ -329,6 +329,15 @@ class PlyChunkReader final : public PointChunkReader {
   std::optional<std::uint64_t> count() const override { return vertices().count; }
 
  protected:
+  bool seek_over(std::uint64_t points) override {
+    // Binary vertices are records of one size (list properties are refused); the last
+    // vertex is read, not skipped, so the elements after it are still checked.
+    if (ascii_ || points_read_ + points >= vertices().count) return false;
+    const std::uint64_t bytes = points * layout_.record_size;
+    if (reader_.skip(bytes) != bytes) fail_truncated(path_, false, vertices(), points_read_);
+    return true;
+  }
+
   std::size_t append(PointTable& chunk, std::size_t max_points) override {
     const std::uint64_t left = vertices().count - points_read_;
     const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(left, max_points));

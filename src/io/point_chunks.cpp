@@ -1,5 +1,6 @@
 #include "pointfair/io/point_chunks.hpp"
 
+#include <algorithm>
 #include <cassert>
 
 namespace pointfair::io {
@@ -18,6 +19,25 @@ std::size_t PointChunkReader::read(PointTable& chunk, std::size_t max_points) {
   const std::size_t got = append(chunk, max_points);
   points_read_ += got;
   return got;
+}
+
+std::uint64_t PointChunkReader::skip(std::uint64_t points) {
+  if (const std::optional<std::uint64_t> total = count()) {
+    points = std::min(points, *total - std::min(*total, points_read_));
+    if (points == 0) return 0;
+    if (seek_over(points)) {
+      points_read_ += points;
+      return points;
+    }
+  }
+  PointTable chunk = schema_;
+  std::uint64_t done = 0;
+  while (done < points) {
+    const std::size_t got = read(chunk, static_cast<std::size_t>(std::min<std::uint64_t>(points - done, 1u << 16)));
+    if (got == 0) break;
+    done += got;
+  }
+  return done;
 }
 
 }  // namespace pointfair::io

@@ -251,6 +251,23 @@ File File::open_parallel(const std::filesystem::path& path, const void* mpi_comm
 #endif
 }
 
+File File::create_parallel(const std::filesystem::path& path, const void* mpi_comm) {
+  quiet_hdf5();
+#ifdef H5_HAVE_PARALLEL
+  Handle fapl(H5Pcreate(H5P_FILE_ACCESS));
+  if (H5Pset_fapl_mpio(fapl.get(), *static_cast<const MPI_Comm*>(mpi_comm), MPI_INFO_NULL) < 0)
+    throw io::IoError(path.string() + ": cannot set up the MPI-IO driver");
+  Handle h(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()));
+  if (!h.valid()) throw io::IoError(path.string() + ": cannot create HDF5 file on every rank");
+  File f(path, std::move(h));
+  f.parallel_ = true;
+  return f;
+#else
+  (void)mpi_comm;
+  throw io::IoError(path.string() + ": this build has no parallel HDF5 (configure with -DPOINTFAIR_MPI=ON)");
+#endif
+}
+
 void File::flush() {
   if (H5Fflush(handle_.get(), H5F_SCOPE_GLOBAL) < 0) fail("", "flush failed");
   // H5Fflush hands the data to the kernel; make it durable as well.

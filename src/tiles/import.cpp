@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <optional>
 #include <random>
 #include <unordered_map>
@@ -297,7 +298,8 @@ struct RemoveOnExit {
 class Import {
  public:
   Import(const fs::path& input, const fs::path& output, const StreamImportOptions& options)
-      : input_(input), output_(output), options_(options), tiling_(options.container.tiling) {}
+      : input_(input), output_(output), options_(options), tiling_(options.container.tiling),
+        ranks_(options.ranks != nullptr ? options.ranks : &single_) {}
 
   StreamImportReport run();
 
@@ -318,8 +320,12 @@ class Import {
     for (const auto& a : chunk.attributes) b += bytes(a.values);
     return b + kReaderBytes;
   }
+  std::unique_ptr<io::PointChunkReader> open_share(const io::ReadOptions& read) const;
+  std::size_t read_share(io::PointChunkReader& reader, io::PointTable& chunk) const;
   void count_and_bounds();
   void build_tiles();
+  void place_share();
+  void write_file(const fs::path& temp);
   void scatter(h5::File& file);
   void flush(h5::File& file);
   void write_metadata(h5::File& file) const;
@@ -329,6 +335,14 @@ class Import {
   fs::path input_, output_;
   StreamImportOptions options_;
   TilingParams tiling_;
+  Ranks single_;
+  Ranks* ranks_;
+  // This rank's share of the input: points [first_, end_) in input order.
+  std::uint64_t first_ = 0, end_ = std::numeric_limits<std::uint64_t>::max();
+  // Per histogram cell, this rank's points (several ranks only, until place_share).
+  std::vector<std::uint64_t> local_cells_;
+  // Per tile, this rank's points and those of the ranks below it (several ranks only).
+  std::vector<std::uint64_t> mine_, below_;
   StreamImportReport report_;
   std::uint64_t persistent_ = 0;
 
@@ -354,11 +368,35 @@ class Import {
   std::vector<std::uint32_t> run_start_;  // per tile, during a flush
 };
 
+std::unique_ptr<io::PointChunkReader> Import::open_share(const io::ReadOptions& read) const {
+  auto reader = io::open_point_reader(input_, read);
+  if (first_ > 0 && reader->skip(first_) != first_) changed(input_);
+  return reader;
+}
+
+// The next chunk of this rank's share (0 at its end).
+std::size_t Import::read_share(io::PointChunkReader& reader, io::PointTable& chunk) const {
+  const std::uint64_t at = reader.points_read();
+  if (at >= end_) return 0;
+  return reader.read(chunk, static_cast<std::size_t>(std::min<std::uint64_t>(read_chunk_, end_ - at)));
+}
+
 void Import::count_and_bounds() {
   constexpr double inf = std::numeric_limits<double>::infinity();
   bounds_ = {inf, inf, inf, -inf, -inf, -inf};
-  const auto reader = io::open_point_reader(input_, options_.read);
-  schema_ = reader->schema();
+  // Without a declared count (text), rank 0 reads everything and the others nothing.
+  std::optional<std::uint64_t> declared;
+  {
+    const auto probe = io::open_point_reader(input_);  // warnings come from the share's reader
+    schema_ = probe->schema();
+    declared = probe->count();
+  }
+  const auto size = static_cast<std::uint64_t>(ranks_->size()), rank = static_cast<std::uint64_t>(ranks_->rank());
+  if (size > 1) {
+    first_ = declared ? *declared * rank / size : 0;
+    end_ = declared ? *declared * (rank + 1) / size : rank == 0 ? end_ : 0;
+  }
+  const auto reader = open_share(options_.read);
   for (const auto& a : schema_.attributes) {
     if (a.name.empty() || a.name.find('/') != std::string::npos || a.name == ".")
       throw io::IoError(output_.string() + ": attribute name '" + a.name + "' cannot name an HDF5 dataset");
@@ -368,7 +406,7 @@ void Import::count_and_bounds() {
   read_chunk_ = static_cast<std::size_t>(std::clamp<std::uint64_t>(
       options_.memory_budget / 8 / point_bytes, 1, options_.read_chunk_points));
   io::PointTable chunk;
-  while (const std::size_t got = reader->read(chunk, read_chunk_)) {
+  while (const std::size_t got = read_share(*reader, chunk)) {
     account(chunk_bytes(chunk));
     for (std::size_t i = 0; i < got; ++i)
       for (std::size_t c = 0; c < 3; ++c) {
@@ -378,6 +416,15 @@ void Import::count_and_bounds() {
       }
     n_ += got;
     progress("count", n_, 0);
+  }
+  if (size > 1) {
+    if (end_ != std::numeric_limits<std::uint64_t>::max() && n_ != end_ - first_) changed(input_);
+    // Exact: the maximum over the ranks of (-min, max).
+    std::array<double, 6> extent = {-bounds_[0], -bounds_[1], -bounds_[2], bounds_[3], bounds_[4], bounds_[5]};
+    ranks_->max(extent);
+    bounds_ = {-extent[0], -extent[1], -extent[2], extent[3], extent[4], extent[5]};
+    n_ = ranks_->sum(n_);
+    if (declared && n_ != *declared) changed(input_);
   }
   if (n_ >= std::numeric_limits<std::uint32_t>::max())
     throw io::IoError(input_.string() + ": " + std::to_string(n_) + " points exceed the limit of 2^32-2 of a container");
@@ -398,22 +445,31 @@ void Import::build_tiles() {
   }
   std::vector<std::uint64_t> counts(grid_.cells(), 0);
   persistent_ += bytes(counts);
+  std::uint64_t seen = 0;
   {
-    const auto reader = io::open_point_reader(input_);
+    const auto reader = open_share({});
     io::PointTable chunk;
-    std::uint64_t seen = 0;
-    while (const std::size_t got = reader->read(chunk, read_chunk_)) {
+    while (const std::size_t got = read_share(*reader, chunk)) {
       account(chunk_bytes(chunk));
       for (std::size_t i = 0; i < got; ++i) ++counts[grid_.cell_of(chunk.positions[i])];
       seen += got;
       progress("histogram", seen, n_);
     }
-    if (seen != n_) changed(input_);
   }
+  if (ranks_->size() > 1) {
+    // Each rank's own counts place its points in their tiles (place_share); the tiles are
+    // built from the sum, the same on every rank.
+    local_cells_ = counts;
+    persistent_ += bytes(local_cells_);
+    account(0);
+    ranks_->sum(counts);
+    seen = ranks_->sum(seen);
+  }
+  if (seen != n_) changed(input_);
   report_.histogram_cells = grid_.cells();
   if (fixed) {
     tile_counts_ = std::move(counts);
-    persistent_ = bytes(tile_counts_);
+    persistent_ = bytes(tile_counts_) + bytes(local_cells_);
     return;
   }
   // The counts and their summed table are both held while the table is built.
@@ -425,7 +481,45 @@ void Import::build_tiles() {
   TileBuilder builder(grid_, box_counts, tiling_.max_tile_points, tile_of_cell_, tile_counts_, splits_);
   builder.build({0, 0, 0}, grid_.dims, n_);
   report_.split_cell_tiles = builder.split_tiles;
-  persistent_ = bytes(tile_of_cell_);  // the summed table is released below
+  persistent_ = bytes(tile_of_cell_) + bytes(local_cells_);  // the summed table is released below
+}
+
+void Import::place_share() {
+  // Rows of a tile follow the input order and the ranks' shares are consecutive ranges of
+  // it: a rank's points of tile t go after those of the ranks below it.
+  const std::size_t tiles = tile_counts_.size();
+  mine_.assign(tiles, 0);
+  if (grid_.fixed_size) {
+    std::copy(local_cells_.begin(), local_cells_.end(), mine_.begin());
+  } else if (n_ > 0) {
+    for (std::uint64_t c = 0; c < local_cells_.size(); ++c) {
+      const std::uint32_t t = tile_of_cell_[c];
+      if (t != kNoTile && t != kSplitCell) mine_[t] += local_cells_[c];
+    }
+    // A cell cut into tiles of `per` consecutive input points: this rank's points of it are
+    // the cell's [before, before + mine) in input order.
+    std::vector<std::uint64_t> cells;
+    for (const auto& entry : splits_) cells.push_back(entry.first);
+    std::sort(cells.begin(), cells.end());
+    std::vector<std::uint64_t> before(cells.size());
+    for (std::size_t i = 0; i < cells.size(); ++i) before[i] = local_cells_[cells[i]];
+    ranks_->sum_below(before);
+    for (std::size_t i = 0; i < cells.size(); ++i) {
+      SplitCell& split = splits_.at(cells[i]);
+      split.seen = before[i];
+      const std::uint64_t end = before[i] + local_cells_[cells[i]];
+      for (std::uint64_t p = before[i]; p < end;) {
+        const std::uint64_t piece = p / split.per, next = std::min(end, (piece + 1) * split.per);
+        mine_[split.first_tile + piece] += next - p;
+        p = next;
+      }
+    }
+  }
+  persistent_ -= bytes(local_cells_);
+  local_cells_ = std::vector<std::uint64_t>();
+  below_ = mine_;
+  ranks_->sum_below(below_);
+  persistent_ += bytes(mine_) + bytes(below_);
 }
 
 void Import::write_metadata(h5::File& f) const {
@@ -502,6 +596,7 @@ void Import::scatter(h5::File& f) {
   offsets_.assign(tiles + 1, 0);
   for (std::size_t t = 0; t < tiles; ++t) offsets_[t + 1] = offsets_[t] + tile_counts_[t];
   filled_.assign(tiles, 0);
+  if (!below_.empty()) filled_ = below_;
   constexpr double inf = std::numeric_limits<double>::infinity();
   tile_bounds_.assign(tiles, Box{inf, inf, inf, -inf, -inf, -inf});
   run_start_.assign(tiles + 1, 0);
@@ -530,9 +625,9 @@ void Import::scatter(h5::File& f) {
   persistent_ += bytes(buffer_tile_) + bytes(buffer_index_) + bytes(buffer_xyz_) + bytes(buffer_values_) +
                  bytes(order_) + bytes(scratch_) + bytes(scratch_index_);
 
-  const auto reader = io::open_point_reader(input_);
-  std::uint64_t index = 0;
-  while (const std::size_t got = reader->read(chunk, read_chunk_)) {
+  const auto reader = open_share({});
+  std::uint64_t index = first_;
+  while (const std::size_t got = read_share(*reader, chunk)) {
     account(chunk_bytes(chunk));
     for (std::size_t i = 0; i < got; ++i, ++index) {
       if (index >= n_) changed(input_);
@@ -567,6 +662,25 @@ void Import::scatter(h5::File& f) {
     progress("scatter", index, n_);
   }
   flush(f);
+  if (ranks_->size() > 1) {
+    if (index != (end_ == std::numeric_limits<std::uint64_t>::max() ? n_ : end_)) changed(input_);
+    for (std::size_t t = 0; t < tiles; ++t)
+      if (filled_[t] != below_[t] + mine_[t]) changed(input_);
+    // Every tile's bounds: the maximum over the ranks of (-min, max), exact.
+    std::vector<double> extent(6 * tiles);
+    for (std::size_t t = 0; t < tiles; ++t)
+      for (std::size_t c = 0; c < 3; ++c) {
+        extent[6 * t + c] = -tile_bounds_[t][c];
+        extent[6 * t + c + 3] = tile_bounds_[t][c + 3];
+      }
+    ranks_->max(extent);
+    for (std::size_t t = 0; t < tiles; ++t)
+      for (std::size_t c = 0; c < 3; ++c) {
+        tile_bounds_[t][c] = -extent[6 * t + c];
+        tile_bounds_[t][c + 3] = extent[6 * t + c + 3];
+      }
+    return;
+  }
   if (index != n_) changed(input_);
   for (std::size_t t = 0; t < tiles; ++t)
     if (filled_[t] != tile_counts_[t]) changed(input_);
@@ -598,6 +712,66 @@ void Import::copy_compressed(const h5::File& staging, h5::File& f) const {
   }
 }
 
+// The tile table, after the points: on every rank (metadata is collective in parallel
+// HDF5), its rows written by rank 0.
+void write_tile_table(h5::File& f, const TilingParams& tiling, const std::vector<std::uint64_t>& offsets,
+                      const std::vector<Box>& bounds, bool writer) {
+  f.create_group(layout::tiles);
+  f.set_attribute(layout::tiles, "scheme", tiling.cell_size > 0 ? "grid" : "histogram-kd");
+  f.set_attribute(layout::tiles, "max_tile_points", static_cast<std::int64_t>(tiling.max_tile_points));
+  f.set_attribute(layout::tiles, "cell_size", tiling.cell_size);
+  f.set_attribute(layout::tiles, "row_order", "original_index");
+  h5::Dataset off = f.create_dataset(layout::tile_offsets, h5::Type::UInt64, offsets.size(), 0);
+  h5::Dataset bnd = f.create_dataset(layout::tile_bounds, h5::Type::Float64, bounds.size(), 6);
+  if (!writer) return;
+  off.write_rows(0, offsets.size(), offsets.data());
+  bnd.write_rows(0, bounds.size(), bounds.data()->data());
+}
+
+void Import::write_file(const fs::path& temp) {
+  h5::DatasetOptions dopt;
+  dopt.chunk_rows = std::min<std::uint64_t>(options_.container.chunk_rows, std::max<std::uint64_t>(n_, 1));
+  const bool first = ranks_->rank() == 0;
+  const auto finish_tiles = [&](h5::File& f, bool writer) {
+    if (n_ == 0) {
+      offsets_.assign(2, 0);
+      constexpr double inf = std::numeric_limits<double>::infinity();
+      tile_bounds_.assign(1, Box{inf, inf, inf, -inf, -inf, -inf});
+    }
+    write_tile_table(f, tiling_, offsets_, tile_bounds_, writer);
+    f.flush();
+    f.close();
+  };
+  if (options_.container.deflate == 0) {
+    h5::File f = ranks_->create_shared(temp);
+    write_metadata(f);
+    create_point_datasets(f, dopt);
+    scatter(f);
+    finish_tiles(f, first);
+    return;
+  }
+  // Compressed chunks are written whole: the scatter goes to an uncompressed staging file
+  // first (rows arrive tile by tile, in pieces), then is copied chunk by chunk, by rank 0.
+  const fs::path staging_path = ranks_->from_first(temporary_name(output_, ".staging-").string());
+  RemoveOnExit remove_staging{first ? staging_path : fs::path()};
+  {
+    h5::File staging = ranks_->create_shared(staging_path);
+    create_point_datasets(staging, dopt);
+    scatter(staging);
+    staging.close();
+  }
+  if (first) {
+    h5::File f = h5::File::create(temp);
+    write_metadata(f);
+    h5::DatasetOptions compressed = dopt;
+    compressed.deflate = options_.container.deflate;
+    create_point_datasets(f, compressed);
+    copy_compressed(h5::File::open(staging_path, false), f);
+    finish_tiles(f, true);
+  }
+  ranks_->barrier();
+}
+
 StreamImportReport Import::run() {
   tiling_.validate();
   require(options_.memory_budget >= kMinBudget, "the import's memory budget must be at least 16 MiB");
@@ -606,54 +780,19 @@ StreamImportReport Import::run() {
   require(options_.container.deflate >= 0 && options_.container.deflate <= 9, "deflate level must be in 0..9");
   count_and_bounds();
   build_tiles();
+  if (ranks_->size() > 1) place_share();
 
-  const fs::path temp = temporary_name(output_, ".tmp-");
-  RemoveOnExit remove_temp{temp};
-  h5::DatasetOptions dopt;
-  dopt.chunk_rows = std::min<std::uint64_t>(options_.container.chunk_rows, std::max<std::uint64_t>(n_, 1));
-  {
-    h5::File f = h5::File::create(temp);
-    write_metadata(f);
-    if (options_.container.deflate > 0) {
-      // Compressed chunks are written whole: the scatter goes to an uncompressed staging
-      // file first (rows arrive tile by tile, in pieces), then is copied chunk by chunk.
-      const fs::path staging_path = temporary_name(output_, ".staging-");
-      RemoveOnExit remove_staging{staging_path};
-      {
-        h5::File staging = h5::File::create(staging_path);
-        create_point_datasets(staging, dopt);
-        scatter(staging);
-        staging.close();
-      }
-      h5::DatasetOptions compressed = dopt;
-      compressed.deflate = options_.container.deflate;
-      create_point_datasets(f, compressed);
-      copy_compressed(h5::File::open(staging_path, false), f);
-    } else {
-      create_point_datasets(f, dopt);
-      scatter(f);
-    }
-    f.create_group(layout::tiles);
-    f.set_attribute(layout::tiles, "scheme", tiling_.cell_size > 0 ? "grid" : "histogram-kd");
-    f.set_attribute(layout::tiles, "max_tile_points", static_cast<std::int64_t>(tiling_.max_tile_points));
-    f.set_attribute(layout::tiles, "cell_size", tiling_.cell_size);
-    f.set_attribute(layout::tiles, "row_order", "original_index");
-    if (n_ == 0) {
-      offsets_.assign(2, 0);
-      constexpr double inf = std::numeric_limits<double>::infinity();
-      tile_bounds_.assign(1, Box{inf, inf, inf, -inf, -inf, -inf});
-    }
-    h5::Dataset off = f.create_dataset(layout::tile_offsets, h5::Type::UInt64, offsets_.size(), 0);
-    off.write_rows(0, offsets_.size(), offsets_.data());
-    h5::Dataset bnd = f.create_dataset(layout::tile_bounds, h5::Type::Float64, tile_bounds_.size(), 6);
-    bnd.write_rows(0, tile_bounds_.size(), tile_bounds_.data()->data());
-    f.flush();
-    f.close();
+  const bool first = ranks_->rank() == 0;
+  const fs::path temp = ranks_->from_first(temporary_name(output_, ".tmp-").string());
+  RemoveOnExit remove_temp{first ? temp : fs::path()};
+  write_file(temp);
+  if (first) {
+    std::error_code ec;
+    fs::rename(temp, output_, ec);
+    if (ec) throw io::IoError(output_.string() + ": cannot rename the finished file into place: " + ec.message());
+    remove_temp.path.clear();
   }
-  std::error_code ec;
-  fs::rename(temp, output_, ec);
-  if (ec) throw io::IoError(output_.string() + ": cannot rename the finished file into place: " + ec.message());
-  remove_temp.path.clear();
+  ranks_->barrier();  // the container is in place when any rank returns
   report_.points = n_;
   report_.attributes = schema_.attributes.size();
   report_.tiles = tile_counts_.size();

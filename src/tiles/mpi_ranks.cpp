@@ -1,6 +1,7 @@
 // MPI collectives behind Ranks: barrier, exact maxima and sums, the shared file.
 #include "pointfair/tiles/mpi_ranks.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -54,6 +55,30 @@ std::uint64_t MpiRanks::sum(std::uint64_t value) {
   return total;
 }
 
+void MpiRanks::sum(std::span<std::uint64_t> values) {
+  if (size_ > 1 && !values.empty())
+    MPI_Allreduce(MPI_IN_PLACE, values.data(), count_of(values.size()), MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+}
+
+void MpiRanks::sum_below(std::span<std::uint64_t> values) {
+  if (values.empty()) return;
+  std::vector<std::uint64_t> mine(values.begin(), values.end());
+  // MPI_Exscan leaves rank 0's buffer undefined.
+  std::fill(values.begin(), values.end(), 0);
+  if (size_ > 1)
+    MPI_Exscan(mine.data(), values.data(), count_of(values.size()), MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+  if (rank_ == 0) std::fill(values.begin(), values.end(), 0);
+}
+
+std::string MpiRanks::from_first(const std::string& text) {
+  if (size_ <= 1) return text;
+  std::uint64_t length = text.size();
+  MPI_Bcast(&length, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+  std::string out = rank_ == 0 ? text : std::string(static_cast<std::size_t>(length), '\0');
+  if (length > 0) MPI_Bcast(out.data(), count_of(out.size()), MPI_CHAR, 0, MPI_COMM_WORLD);
+  return out;
+}
+
 void MpiRanks::merge(std::span<double> values) {
   if (size_ <= 1 || values.empty()) return;
   std::vector<std::uint64_t> bits(values.size());
@@ -65,6 +90,12 @@ void MpiRanks::merge(std::span<double> values) {
 h5::File MpiRanks::open_shared(const std::filesystem::path& path) {
   const MPI_Comm comm = MPI_COMM_WORLD;
   return h5::File::open_parallel(path, &comm);
+}
+
+h5::File MpiRanks::create_shared(const std::filesystem::path& path) {
+  if (size_ <= 1) return h5::File::create(path);
+  const MPI_Comm comm = MPI_COMM_WORLD;
+  return h5::File::create_parallel(path, &comm);
 }
 
 void abort_job(const std::string& program, const std::string& message, int exit_code) {

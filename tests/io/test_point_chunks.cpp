@@ -111,6 +111,35 @@ TEST_P(ChunkedFormats, ReaderGivesTheInMemoryTableForAnyChunkSize) {
   }
 }
 
+TEST_P(ChunkedFormats, SkippedPointsLeaveTheRestAsReadFromThere) {
+  TempDir dir;
+  const Encoding e = GetParam();
+  const fs::path file = dir / e.file;
+  write_points(file, sample_table(300, e.position_type), {.ply_encoding = e.ply, .input = {}});
+  const PointTable whole = read_points(file);
+  for (const std::uint64_t first : {std::uint64_t{0}, std::uint64_t{1}, std::uint64_t{123}, std::uint64_t{298}}) {
+    SCOPED_TRACE("skip " + std::to_string(first));
+    const auto reader = open_point_reader(file);
+    PointTable chunk;
+    ASSERT_EQ(reader->read(chunk, 2), 2u);  // skipping also works after a read
+    EXPECT_EQ(reader->skip(first), first);
+    EXPECT_EQ(reader->points_read(), first + 2);
+    const std::size_t rest = 300 - static_cast<std::size_t>(first) - 2;
+    ASSERT_EQ(reader->read(chunk, 1000), rest);
+    if (rest == 0) continue;
+    for (std::size_t i = 0; i < chunk.size(); ++i) {
+      ASSERT_TRUE(same_bits(chunk.positions[i].x(), whole.positions[first + 2 + i].x())) << i;
+      for (std::size_t k = 0; k < chunk.attributes.size(); ++k)
+        ASSERT_TRUE(same_bits(chunk.attributes[k].values[i], whole.attributes[k].values[first + 2 + i])) << k;
+    }
+  }
+  // Past the end: only what is left.
+  const auto reader = open_point_reader(file);
+  EXPECT_EQ(reader->skip(1000), 300u);
+  PointTable chunk;
+  EXPECT_EQ(reader->read(chunk, 10), 0u);
+}
+
 TEST_P(ChunkedFormats, WriterInChunksWritesTheSameBytes) {
   TempDir dir;
   const Encoding e = GetParam();

@@ -1,6 +1,8 @@
 // pointfair_mpi: the out-of-core smooth of an HDF5 container on the ranks of an MPI job
 // (mpirun / srun), over parallel HDF5. Same options and same result, to the bit, as
 // `pointfair smooth IN.h5 OUT.h5` for any number of ranks. Built with -DPOINTFAIR_MPI=ON.
+// `pointfair_mpi import IN OUT.h5` writes the container of `pointfair import`, to the bit,
+// each rank reading its share of the input (tiles/import.hpp).
 //
 // Exit codes as pointfair's: 0 ok (or stopped by the test hook), 1 unexpected failure,
 // 2 bad arguments or parameters, 3 input/output error. A rank that fails ends the whole job
@@ -20,6 +22,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -27,10 +30,12 @@
 #include "cli/arguments.hpp"
 #include "cli/method_options.hpp"
 #include "cli/out_of_core.hpp"
+#include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/params_error.hpp"
+#include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/mpi_ranks.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
 #include "pointfair/version.hpp"
@@ -117,6 +122,69 @@ int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
   return 0;
 }
 
+int run_import(const std::vector<std::string>& args, tiles::Ranks& ranks) {
+  std::string input, output;
+  std::uint64_t budget = std::uint64_t{256} << 20, tile_points = 0;
+  tiles::StreamImportOptions stream;
+  bool quiet = false;
+  cli::ArgumentParser parser(
+      "pointfair_mpi import",
+      "pointfair import on the ranks of an MPI job: each rank reads its share of a binary PLY or "
+      "LAS file (rank 0 all of a text file) and writes its points into the container with "
+      "parallel HDF5. The container is bit-identical to pointfair import's.");
+  parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
+  parser.positional("OUT", "Output container (.h5); written under a temporary name and renamed.", &output);
+  parser.value("memory-budget", "SIZE", "As pointfair import (per rank). Default 256M.",
+               [&](std::string_view v) { budget = cli::parse_size(v, "--memory-budget"); });
+  parser.value("tile-points", "N", "Most points per tile (kd tiles); overrides --memory-budget.",
+               [&](std::string_view v) {
+                 const int p = cli::parse_int(v, "--tile-points");
+                 if (p < 1) throw cli::UsageError("--tile-points must be >= 1");
+                 tile_points = static_cast<std::uint64_t>(p);
+               });
+  parser.value("tile-size", "LENGTH", "Regular grid tiles of this edge length.", [&](std::string_view v) {
+    stream.container.tiling.cell_size = cli::parse_double(v, "--tile-size");
+    if (!(stream.container.tiling.cell_size > 0.0)) throw cli::UsageError("--tile-size must be positive");
+  });
+  parser.value("chunk-rows", "N", "Rows per HDF5 chunk. Default 65536.", [&](std::string_view v) {
+    const int c = cli::parse_int(v, "--chunk-rows");
+    if (c < 1) throw cli::UsageError("--chunk-rows must be >= 1");
+    stream.container.chunk_rows = static_cast<std::uint64_t>(c);
+  });
+  parser.value("deflate", "LEVEL", "Deflate level 0..9 (rank 0 compresses). Default 0.", [&](std::string_view v) {
+    stream.container.deflate = cli::parse_int(v, "--deflate");
+    if (stream.container.deflate < 0 || stream.container.deflate > 9)
+      throw cli::UsageError("--deflate must be in 0..9");
+  });
+  parser.flag("quiet", "No summary on stderr.", [&] { quiet = true; });
+  if (!parser.parse(args)) return 0;
+  if (!cli::is_container_path(output))
+    throw cli::UsageError("pointfair_mpi import: OUT must be a .h5 file, got '" + output + "'");
+  io::require_distinct(input, output);
+  const auto t0 = std::chrono::steady_clock::now();
+  stream.container.tiling.max_tile_points = tile_points > 0 ? tile_points : cli::tile_points_for_budget(budget, 16);
+  stream.container.source_name = std::filesystem::path(input).filename().string();
+  std::error_code ec;
+  stream.container.source_size = std::filesystem::file_size(input, ec);
+  if (ec) throw io::IoError(input + ": cannot open: " + ec.message());
+  stream.memory_budget = budget;
+  const bool talk = !quiet && ranks.rank() == 0;
+  // The last rank reads the end of the file, where the warnings about what follows the
+  // points arise; the others would repeat those given when the file is opened.
+  const bool warn = !quiet && ranks.rank() == ranks.size() - 1;
+  stream.read.on_warning = [warn](const std::string& message) {
+    if (warn) std::fprintf(stderr, "warning: %s\n", message.c_str());
+  };
+  stream.ranks = &ranks;
+  const tiles::StreamImportReport report = tiles::import_points(input, output, stream);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (talk)
+    std::fprintf(stderr, "%s import: %llu points, %zu attributes, %zu tiles on %d ranks in %.2f s -> %s\n", kProgram,
+                 static_cast<unsigned long long>(report.points), report.attributes, report.tiles, ranks.size(),
+                 seconds, output.c_str());
+  return 0;
+}
+
 // The terminate handler: names this rank and the problem, and ends every rank of the job.
 [[noreturn]] void on_failure() {
   std::string message = "unexpected failure";
@@ -146,12 +214,14 @@ int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
 int main(int argc, char** argv) {
   tiles::MpiSession session(argc, argv);
   const std::vector<std::string> all(argv + 1, argv + argc);
-  if (all.empty() || (all[0] != "smooth" && all[0] != "version" && all[0] != "--version")) {
-    std::fprintf(stderr, "usage: %s smooth IN.h5 OUT.h5 [options]   (%s smooth --help lists them)\n", kProgram,
-                 kProgram);
+  if (all.empty() || (all[0] != "smooth" && all[0] != "import" && all[0] != "version" && all[0] != "--version")) {
+    std::fprintf(stderr,
+                 "usage: %s smooth IN.h5 OUT.h5 [options]   (%s smooth --help lists them)\n"
+                 "       %s import IN OUT.h5 [options]\n",
+                 kProgram, kProgram, kProgram);
     return 2;
   }
-  if (all[0] != "smooth") {
+  if (all[0] != "smooth" && all[0] != "import") {
     std::printf("%s %s\n", kProgram, version());
     return 0;
   }
@@ -161,7 +231,8 @@ int main(int argc, char** argv) {
   std::set_terminate(on_failure);
   tiles::MpiRanks ranks;
   try {
-    return run(std::vector<std::string>(all.begin() + 1, all.end()), ranks);
+    const std::vector<std::string> rest(all.begin() + 1, all.end());
+    return all[0] == "import" ? run_import(rest, ranks) : run(rest, ranks);
   } catch (const cli::UsageError& e) {
     // Every rank parses the same command line: all end here, before any file is open.
     if (ranks.rank() == 0) std::fprintf(stderr, "error: %s\n", e.what());

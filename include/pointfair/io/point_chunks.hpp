@@ -33,11 +33,19 @@ class PointChunkReader {
   /// the file), keeping the schema; returns how many. 0 means the end (and stays 0).
   /// `max_points` must be >= 1. The chunk's vectors keep their capacity between calls.
   std::size_t read(PointTable& chunk, std::size_t max_points);
+  /// Passes over the next `points` points (at most those left) without returning them;
+  /// returns how many. Binary formats of fixed-size records (binary PLY, LAS) seek over them;
+  /// the others read and drop them. Lets the processes of a job each read their own share
+  /// of one file. Warnings about what follows the points are not given by skipping.
+  std::uint64_t skip(std::uint64_t points);
 
  protected:
   explicit PointChunkReader(std::filesystem::path path) : path_(std::move(path)) {}
   /// Appends up to `max_points` points to `chunk` (whose columns match the schema).
   virtual std::size_t append(PointTable& chunk, std::size_t max_points) = 0;
+  /// Seeks over `points` points (no more than are left); false when the format cannot (then
+  /// skip() reads through them).
+  virtual bool seek_over(std::uint64_t /*points*/) { return false; }
 
   std::filesystem::path path_;
   PointTable schema_;

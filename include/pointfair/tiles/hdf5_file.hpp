@@ -158,6 +158,8 @@ class File {
   /// collective (Transfer). Only in builds against parallel HDF5 (parallel_available());
   /// elsewhere throws IoError.
   static File open_parallel(const std::filesystem::path& path, const void* mpi_comm);
+  /// Creates (truncating) `path` on every process of an MPI communicator, as open_parallel.
+  static File create_parallel(const std::filesystem::path& path, const void* mpi_comm);
   static bool parallel_available();
 
   const std::filesystem::path& name() const { return name_; }

@@ -10,6 +10,7 @@
 
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/ranks.hpp"
 
 namespace pointfair::tiles {
 
@@ -28,6 +29,15 @@ struct StreamImportOptions {
   /// the points read so far in it and the total (0 while counting). It may throw to stop the
   /// import (e.g. on SIGINT): nothing is left behind, as for any error.
   std::function<void(const std::string& pass, std::uint64_t done, std::uint64_t total)> progress;
+  /// The processes that import together (nullptr: this one alone; see ranks.hpp). Every rank
+  /// calls import_points with the same arguments; each reads its share of the input (an
+  /// equal range of the points a binary PLY or LAS declares, reached by seeking; rank 0 reads
+  /// all of a text file, whose count is unknown until it is read), the histograms and bounds
+  /// are summed over the ranks, and each rank writes its points into their tiles' rows
+  /// through parallel HDF5. The container is the one a single process writes, to the bit.
+  /// With deflate, the ranks scatter into an uncompressed staging file and rank 0 alone
+  /// writes the compressed container from it.
+  Ranks* ranks = nullptr;
 };
 
 struct StreamImportReport {

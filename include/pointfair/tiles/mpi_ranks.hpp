@@ -28,8 +28,12 @@ class MpiRanks final : public Ranks {
   void max(std::span<double> values) override;
   void max(std::span<std::uint64_t> values) override;
   std::uint64_t sum(std::uint64_t value) override;
+  void sum(std::span<std::uint64_t> values) override;
+  void sum_below(std::span<std::uint64_t> values) override;
+  std::string from_first(const std::string& text) override;
   void merge(std::span<double> values) override;
   h5::File open_shared(const std::filesystem::path& path) override;
+  h5::File create_shared(const std::filesystem::path& path) override;
 
  private:
   int rank_ = 0, size_ = 1;
