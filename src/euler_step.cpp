@@ -24,6 +24,7 @@ void FlowParams::validate() const {
   require(tau > 0.0 && tau <= 1.0, "tau must be in (0, 1], got " + std::to_string(tau));
   features.validate();
   weingarten.validate();
+  robust.validate();
 }
 
 PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
@@ -31,7 +32,9 @@ PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
                           bool with_curvature) {
   PointState s;
   if (neighbors.empty()) return s;
-  s.frame = compute_frame(p, neighbors, points);
+  s.frame = params.normal_estimator == NormalEstimator::Robust
+                ? compute_robust_frame(p, neighbors, points, params.robust)
+                : compute_frame(p, neighbors, points);
   const bool needs_frame = params.flow == Flow::Anisotropic || params.constrain_normal ||
                            params.feature_gated || with_curvature;
   if (needs_frame && !s.frame.valid) return s;
@@ -98,6 +101,17 @@ Pair abs_lanes(Pair v) {
   return std::bit_cast<Pair>(std::bit_cast<PairBits>(v) & kMagnitude);
 }
 
+// The robust plane of the first m offsets, with stack work space.
+RobustPlane robust_plane_of(const Offsets& d, std::size_t m, const RobustFrameParams& params) {
+  std::array<Vec3, kLocalNeighbors> offsets;
+  for (std::size_t j = 0; j < m; ++j) offsets[j] = Vec3(d.x[j], d.y[j], d.z[j]);
+  std::array<double, kLocalNeighbors + 1> weights;
+  std::array<double, kLocalNeighbors + 1> scratch;
+  return fit_robust_plane(std::span<const Vec3>(offsets.data(), m), params,
+                          std::span<double>(weights.data(), m + 1),
+                          std::span<double>(scratch.data(), m + 1));
+}
+
 struct Displacement {
   Vec3 value = Vec3::Zero();
   bool valid = false;
@@ -155,7 +169,7 @@ Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
   } else {
     // Covariance of {p} ∪ N about its barycentre p + mean (p itself is the offset 0).
     const double inv_count = 1.0 / static_cast<double>(m + 1);
-    const Vec3 mean = sum * inv_count;
+    Vec3 mean = sum * inv_count;
     Eigen::Matrix3d covariance;
     covariance(0, 0) = lane_sum(sxx) * inv_count - mean.x() * mean.x();
     covariance(0, 1) = lane_sum(sxy) * inv_count - mean.x() * mean.y();
@@ -166,7 +180,16 @@ Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
     covariance(1, 0) = covariance(0, 1);
     covariance(2, 0) = covariance(0, 2);
     covariance(2, 1) = covariance(1, 2);
-    const NormalEstimate estimate = normal_from_covariance(covariance);
+    NormalEstimate estimate;
+    if (params.normal_estimator == NormalEstimator::Robust) {
+      // The robust plane (robust_frame.hpp) instead of the PCA plane: its normal and its
+      // weighted barycentre; the cut-off below is the same.
+      const RobustPlane plane = robust_plane_of(d, m, params.robust);
+      estimate = NormalEstimate{plane.normal, plane.valid};
+      mean = plane.mean;
+    } else {
+      estimate = normal_from_covariance(covariance);
+    }
     if (!estimate.valid || m < 2) return out;
     const Vec3& n = estimate.normal;
     Vec3 a = Vec3::Zero();

@@ -14,8 +14,13 @@
 #include "pointfair/frame.hpp"
 #include "pointfair/laplacian.hpp"
 #include "pointfair/neighborhoods.hpp"
+#include "pointfair/robust_frame.hpp"
 
 namespace pointfair {
+
+/// The tangent frame the flow reads: the PCA frame of the paper (eq. 1) or the robust frame
+/// (robust_frame.hpp), which does not straddle sharp edges.
+enum class NormalEstimator { Pca, Robust };
 
 struct FlowParams {
   Flow flow = Flow::Anisotropic;
@@ -41,6 +46,8 @@ struct FlowParams {
   bool feature_gated = false;
   FeatureParams features;
   WeingartenParams weingarten;
+  NormalEstimator normal_estimator = NormalEstimator::Pca;
+  RobustFrameParams robust;
 
   void validate() const;
 };

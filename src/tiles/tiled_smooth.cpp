@@ -57,7 +57,9 @@ std::string parameters_key(const SmoothParams& p) {
     << " weights=" << static_cast<int>(p.flow.weingarten.weights)
     << " density_floor=" << p.flow.weingarten.density_floor
     << " cutoff_origin=" << static_cast<int>(p.flow.cutoff_origin)
-    << " stop_lambda_ratio=" << p.stop_lambda_ratio;
+    << " stop_lambda_ratio=" << p.stop_lambda_ratio
+    << " normal=" << static_cast<int>(p.flow.normal_estimator) << " robust_seed=" << p.flow.robust.seed_neighbors
+    << " robust_iterations=" << p.flow.robust.iterations << " robust_bound=" << p.flow.robust.inlier_bound;
   return s.str();
 }
 
@@ -306,6 +308,8 @@ void Run::create(const fs::path& partial) {
   f.set_attribute(layout::run, "weights",
                   params_.flow.weingarten.weights == AngularWeights::Paper ? "paper" : "uniform");
   f.set_attribute(layout::run, "density_floor", params_.flow.weingarten.density_floor);
+  f.set_attribute(layout::run, "normal",
+                  params_.flow.normal_estimator == NormalEstimator::Robust ? "robust" : "pca");
 
   f.create_dataset(layout::run_eps, h5::Type::Float64, 1, 0, early);
   f.create_dataset(layout::run_step_log, h5::Type::Float64, static_cast<std::uint64_t>(std::max(1, params_.steps)),

@@ -97,18 +97,69 @@ Weingarten weingarten(const Vec3& p, std::span<const Index> nb, std::span<const 
   return result;
 }
 
+Plane robust_plane(const Vec3& p, std::span<const Index> nb, std::span<const Vec3> points,
+                   int seed, int iterations, double bound) {
+  std::vector<Vec3> set{p};
+  for (const Index j : nb) set.push_back(points[j]);
+  std::vector<double> w(set.size(), 0.0);
+  for (std::size_t j = 0; j < set.size() && j <= static_cast<std::size_t>(seed); ++j) w[j] = 1.0;
+  const auto fit = [&set](const std::vector<double>& weights) {
+    double total = 0.0;
+    Vec3 centroid = Vec3::Zero();
+    for (std::size_t j = 0; j < set.size(); ++j) {
+      total += weights[j];
+      centroid += weights[j] * set[j];
+    }
+    centroid /= total;
+    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
+    for (std::size_t j = 0; j < set.size(); ++j)
+      m += weights[j] * (set[j] - centroid) * (set[j] - centroid).transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(m / total);
+    return Plane{solver.eigenvectors().col(0), centroid};
+  };
+  Plane plane = fit(w);
+  for (int it = 0; it < iterations; ++it) {
+    std::vector<double> distance(set.size());
+    for (std::size_t j = 0; j < set.size(); ++j) distance[j] = std::abs(plane.normal.dot(set[j] - plane.centroid));
+    std::vector<double> sorted = distance;
+    std::sort(sorted.begin(), sorted.end());
+    const double scale = 1.4826 * sorted[set.size() / 2];
+    for (std::size_t j = 0; j < set.size(); ++j) {
+      const double u = distance[j] / (bound * scale);
+      w[j] = u < 1.0 ? (1.0 - u * u) * (1.0 - u * u) : 0.0;
+    }
+    plane = fit(w);
+  }
+  return plane;
+}
+
 std::vector<Vec3> euler_step(std::span<const Vec3> points,
                              const std::vector<std::vector<Index>>& nbs, const StepOptions& o) {
   std::vector<Vec3> next(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
     const Vec3& p = points[i];
-    const Frame f = frame(p, nbs[i], points);
+    Frame f = frame(p, nbs[i], points);
+    Vec3 origin = p;
+    if (o.robust) {
+      const Plane plane = robust_plane(p, nbs[i], points, 6, 3, 3.0);
+      f.normal = plane.normal;
+      if (o.plane_origin) origin = p + f.normal.dot(plane.centroid - p) * f.normal;
+    } else if (o.plane_origin) {
+      Vec3 centroid = p;
+      for (const Index j : nbs[i]) centroid += points[j];
+      centroid /= static_cast<double>(nbs[i].size() + 1);
+      origin = p + f.normal.dot(centroid - p) * f.normal;
+    }
     Cut cut = o.cut;
     if (o.gated) {
       const Weingarten w = weingarten(p, nbs[i], points, f, o.paper_weights, o.density_floor);
       if (feature_class(w.k1, w.k2, true, o.quotient, o.lambda) == 0) cut = Cut::None;
     }
-    const Vec3 a = laplacian(p, nbs[i], points, f.normal, o.lambda, cut);
+    // The cut-off reads kappa from `origin`; the motion is still toward p_j - p.
+    Vec3 a = Vec3::Zero();
+    for (const Index j : nbs[i])
+      a += cut_weight(kappa(f.normal, origin, points[j]), o.lambda, cut) * (points[j] - p);
+    a /= static_cast<double>(nbs[i].size());
     next[i] = o.normal_only ? Vec3(p + o.tau * a.dot(f.normal) * f.normal) : Vec3(p + o.tau * a);
   }
   return next;

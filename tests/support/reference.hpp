@@ -90,8 +90,23 @@ inline int feature_class(double k1, double k2, bool quotient_mode, double q, dou
   return small >= threshold ? 2 : 1;
 }
 
+/// The robust plane (robust_frame.hpp) written out plainly: weighted PCA of p and its `seed`
+/// nearest neighbours, then `iterations` passes of Tukey weights (bound times 1.4826 times the
+/// median absolute distance, the median being element (m+1)/2 of the sorted distances of the
+/// m+1 points) and weighted PCA, all with the iterative eigen solver.
+struct Plane {
+  Vec3 normal;
+  Vec3 centroid;
+};
+Plane robust_plane(const Vec3& p, std::span<const Index> nb, std::span<const Vec3> points,
+                   int seed, int iterations, double bound);
+
 struct StepOptions {
   Cut cut = Cut::Sharp;
+  /// The cut-off's curvatures from p's foot on its plane (CutoffOrigin::Plane).
+  bool plane_origin = false;
+  /// The robust plane (seed 6, 3 passes, bound 3) instead of the PCA plane.
+  bool robust = false;
   double lambda = 1.0;
   double tau = 0.5;
   bool normal_only = false;

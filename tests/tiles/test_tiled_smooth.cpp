@@ -76,11 +76,12 @@ TEST_F(TiledSmoothTest, BitIdenticalToInCoreForAnyTiling) {
 
 TEST_F(TiledSmoothTest, IsotropicConstrainedAndGatedFlowsToo) {
   const io::PointTable cloud = test::noisy_cube(4000, 12);
-  for (int variant = 0; variant < 3; ++variant) {
+  for (int variant = 0; variant < 4; ++variant) {
     SmoothParams params = few_steps(2);
     if (variant == 0) params.flow.flow = Flow::Isotropic;
     if (variant == 1) params.flow.constrain_normal = true, params.flow.cutoff = Cutoff::Continuous;
     if (variant == 2) params.flow.feature_gated = true, params.flow.features.mode = FeatureMode::MaxCurvature;
+    if (variant == 3) params.flow.normal_estimator = NormalEstimator::Pca;  // the defaults: robust
     const InCore ref = run_in_core(cloud, params);
     write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 333}));
     smooth_out_of_core(path("in.h5"), path("run.h5"), params);

@@ -23,6 +23,7 @@ Enum parse_choice(std::string_view text, std::string_view option,
 
 std::string to_string(Flow flow) { return flow == Flow::Isotropic ? "iso" : "aniso"; }
 std::string to_string(Cutoff cutoff) { return cutoff == Cutoff::Sharp ? "sharp" : "continuous"; }
+std::string to_string(NormalEstimator normal) { return normal == NormalEstimator::Robust ? "robust" : "pca"; }
 std::string to_string(FeatureMode mode) {
   switch (mode) {
     case FeatureMode::None: return "none";
@@ -108,13 +109,28 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Automatic stop of the anisotropic flow, R in [0, 1) (dimensionless): with --lambda auto "
           "and --lambda-schedule every-step, stop once lambda has fallen to R times its value on "
           "the input (the noise is then mostly gone); --steps is the most steps run. 0 = always "
-          "run --steps (the paper). Default 0.25.",
+          "run --steps (the paper). Default 0.15.",
           [&s](std::string_view v) { s.stop_lambda_ratio = parse_double(v, "--stop-lambda-ratio"); });
   p.value("lambda-factor", "F", "Multiplier of the automatic lambda (dimensionless). Default 1.",
           [&s](std::string_view v) { s.flow.lambda_auto_factor = parse_double(v, "--lambda-factor"); });
   p.flag("constrain-normal",
          "The paper's 'constrain interior': move each point along its normal only. Default off.",
          [&s] { s.flow.constrain_normal = true; });
+  p.value("normal", "pca|robust",
+          "Tangent frame of the flow: the PCA plane of the whole neighbourhood (the paper) or a "
+          "robust plane refitted from the nearest neighbours with Tukey weights, which does not "
+          "straddle sharp edges. Default robust.",
+          [&s](std::string_view v) {
+            s.flow.normal_estimator = parse_choice<NormalEstimator>(
+                v, "normal", {{"pca", NormalEstimator::Pca}, {"robust", NormalEstimator::Robust}});
+          });
+  p.value("robust-seed", "N", "Nearest neighbours of the robust frame's seed plane. Default 6.",
+          [&s](std::string_view v) { s.flow.robust.seed_neighbors = parse_int(v, "--robust-seed"); });
+  p.value("robust-iterations", "N", "Reweighting passes of the robust frame. Default 3.",
+          [&s](std::string_view v) { s.flow.robust.iterations = parse_int(v, "--robust-iterations"); });
+  p.value("robust-bound", "C",
+          "Tukey bound of the robust frame in robust-scale units (dimensionless). Default 3.",
+          [&s](std::string_view v) { s.flow.robust.inlier_bound = parse_double(v, "--robust-bound"); });
   p.value("rebuild-every", "M",
           "Rebuild the neighbourhoods from the current positions every M steps; 0 = never "
           "(the paper's default: built once from the input). Default 0.",

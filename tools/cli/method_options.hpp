@@ -29,6 +29,7 @@ void add_output_options(ArgumentParser& parser, OutputOptions& output, bool with
 
 std::string to_string(Flow flow);
 std::string to_string(Cutoff cutoff);
+std::string to_string(NormalEstimator normal);
 std::string to_string(FeatureMode mode);
 std::string to_string(AngularWeights weights);
 std::string to_string(ColourBy colour);
