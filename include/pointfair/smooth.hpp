@@ -19,8 +19,8 @@ struct SmoothParams {
   /// curvatures from each point's foot on its fitted plane (CutoffOrigin::Plane) and fit that
   /// plane robustly (NormalEstimator::Robust), so that it does not straddle sharp edges.
   /// Measured with the automatic stop below on fandisk (100K points, seed 1; RMS distance in
-  /// 1e-3 of the diagonal / normal error near creases, clean samples 13.6°): 0.341 / 15.4° at
-  /// 0.1% noise and 1.429 / 25.8° at 0.5%, against 0.381 / 16.8° and 1.476 / 26.6° with PCA
+  /// 1e-3 of the diagonal / normal error near creases, clean samples 13.6°): 0.353 / 15.9° at
+  /// 0.1% noise and 1.446 / 26.7° at 0.5%, against 0.381 / 16.8° and 1.476 / 26.6° with PCA
   /// planes (stop at 0.25) and 0.74 / 16.9° and 2.03 / 33.3° for the paper's reading (Point,
   /// PCA, 100 steps, no stop). README, Quality.
   FlowParams flow = [] {
@@ -42,12 +42,12 @@ struct SmoothParams {
   /// whose lambda is at most this fraction of the lambda of the input. The median |kappa_ij|
   /// is dominated by the noise, so its fall measures how much of the noise is gone, whatever
   /// its level, and the flow stops before it drifts; `steps` is then the most steps run.
-  /// Ignored by the isotropic flow and with a fixed lambda or lambda measured once. 0.15
-  /// measured best with the robust plane on fandisk (100K points: 8 steps at 0.1% noise, 22 at
-  /// 0.5%; 0.2 and 0.25 stop earlier with more noise left, 0.1 drifts); the octahedron at 1.5%
-  /// prefers 0.25 (RMS 5.09 vs 5.79 at 0.15, edges 27.1° vs 25.1°). README, Quality.
+  /// Ignored by the isotropic flow and with a fixed lambda or lambda measured once. 0.2 is the
+  /// compromise measured with the robust plane (README, Quality): fandisk (100K points) stops
+  /// after 6 steps at 0.1% noise and 18 at 0.5%, and prefers 0.15 (0.341 / 15.4° and 1.429 /
+  /// 25.8°); the torus and the octahedron prefer 0.25 (RMS 2.97 vs 3.52 at 0.15, 5.09 vs 5.79).
   /// The out-of-core smoother stops at the same step.
-  double stop_lambda_ratio = 0.15;
+  double stop_lambda_ratio = 0.2;
 
   void validate() const;
 };

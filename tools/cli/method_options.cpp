@@ -109,7 +109,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Automatic stop of the anisotropic flow, R in [0, 1) (dimensionless): with --lambda auto "
           "and --lambda-schedule every-step, stop once lambda has fallen to R times its value on "
           "the input (the noise is then mostly gone); --steps is the most steps run. 0 = always "
-          "run --steps (the paper). Default 0.15.",
+          "run --steps (the paper). Default 0.2.",
           [&s](std::string_view v) { s.stop_lambda_ratio = parse_double(v, "--stop-lambda-ratio"); });
   p.value("lambda-factor", "F", "Multiplier of the automatic lambda (dimensionless). Default 1.",
           [&s](std::string_view v) { s.flow.lambda_auto_factor = parse_double(v, "--lambda-factor"); });
