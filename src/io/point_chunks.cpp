@@ -22,16 +22,18 @@ std::size_t PointChunkReader::read(PointTable& chunk, std::size_t max_points) {
 }
 
 std::uint64_t PointChunkReader::skip(std::uint64_t points) {
+  std::uint64_t done = 0;
   if (const std::optional<std::uint64_t> total = count()) {
     points = std::min(points, *total - std::min(*total, points_read_));
     if (points == 0) return 0;
-    if (seek_over(points)) {
-      points_read_ += points;
-      return points;
+    // All but the last skipped point by seeking where the format can; that one is read, so
+    // that when it is the file's last point, what follows the points is handled as usual.
+    if (points > 1 && seek_over(points - 1)) {
+      points_read_ += points - 1;
+      done = points - 1;
     }
   }
   PointTable chunk = schema_;
-  std::uint64_t done = 0;
   while (done < points) {
     const std::size_t got = read(chunk, static_cast<std::size_t>(std::min<std::uint64_t>(points - done, 1u << 16)));
     if (got == 0) break;

@@ -419,6 +419,9 @@ void Import::count_and_bounds() {
   }
   if (size > 1) {
     if (end_ != std::numeric_limits<std::uint64_t>::max() && n_ != end_ - first_) changed(input_);
+    // Every rank's reader reads the file's last point (seeking to it), as a single process's
+    // does: what a reader learns there (a LAS file's EVLRs) is then the same on every rank.
+    if (declared) reader->skip(*declared - reader->points_read());
     // Exact: the maximum over the ranks of (-min, max).
     std::array<double, 6> extent = {-bounds_[0], -bounds_[1], -bounds_[2], bounds_[3], bounds_[4], bounds_[5]};
     ranks_->max(extent);

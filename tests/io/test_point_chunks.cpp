@@ -133,11 +133,17 @@ TEST_P(ChunkedFormats, SkippedPointsLeaveTheRestAsReadFromThere) {
         ASSERT_TRUE(same_bits(chunk.attributes[k].values[i], whole.attributes[k].values[first + 2 + i])) << k;
     }
   }
-  // Past the end: only what is left.
-  const auto reader = open_point_reader(file);
+  // Past the end: only what is left, and what follows the points is handled as by reading.
+  std::vector<std::string> warnings;
+  ReadOptions options;
+  options.on_warning = [&warnings](const std::string& w) { warnings.push_back(w); };
+  std::vector<std::string> read_warnings;
+  read_chunked(file, 1000, &read_warnings);
+  const auto reader = open_point_reader(file, options);
   EXPECT_EQ(reader->skip(1000), 300u);
   PointTable chunk;
   EXPECT_EQ(reader->read(chunk, 10), 0u);
+  EXPECT_EQ(warnings, read_warnings);
 }
 
 TEST_P(ChunkedFormats, WriterInChunksWritesTheSameBytes) {

@@ -34,9 +34,10 @@ class PointChunkReader {
   /// `max_points` must be >= 1. The chunk's vectors keep their capacity between calls.
   std::size_t read(PointTable& chunk, std::size_t max_points);
   /// Passes over the next `points` points (at most those left) without returning them;
-  /// returns how many. Binary formats of fixed-size records (binary PLY, LAS) seek over them;
-  /// the others read and drop them. Lets the processes of a job each read their own share
-  /// of one file. Warnings about what follows the points are not given by skipping.
+  /// returns how many. Binary formats of fixed-size records (binary PLY, LAS) seek over all
+  /// but the last of them and read that one; the others read and drop them all. Lets the
+  /// processes of a job each read their own share of one file. Skipping to the end handles
+  /// what follows the points (warnings, a LAS file's EVLRs) as reading to the end does.
   std::uint64_t skip(std::uint64_t points);
 
  protected:
