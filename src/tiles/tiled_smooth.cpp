@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <optional>
 #include <sstream>
@@ -18,6 +19,7 @@
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/tiles/balance.hpp"
 #include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/pipeline.hpp"
 #include "pointfair/tiles/ranks.hpp"
 #include "pointfair/version.hpp"
 
@@ -33,7 +35,16 @@ double seconds_since(Clock::time_point t0) {
 }
 
 // Slots of /run/state, the commit record: one small contiguous dataset rewritten in place.
-enum StateSlot { kSetupDone = 0, kNeighborsDone = 1, kCompletedSteps = 2, kFinished = 3, kStateSize = 4 };
+// kNeighborsStep: the step whose positions the stored neighbour lists were built from (0: the
+// input or the reference; a rebuild at step s overwrites them in place and records s).
+enum StateSlot {
+  kSetupDone = 0,
+  kNeighborsDone = 1,
+  kCompletedSteps = 2,
+  kFinished = 3,
+  kNeighborsStep = 4,
+  kStateSize = 5
+};
 
 // Rows read at a time when filtering whole tiles for halos.
 constexpr std::uint64_t kScanBlock = 1u << 15;
@@ -109,7 +120,12 @@ class Run {
   std::uint64_t tiles_to_write() const;
   std::uint64_t my_first_row() const { return tiles_.offsets[first_tile_]; }
   std::uint64_t my_end_row() const { return tiles_.offsets[end_tile_]; }
-  void build_neighbors();
+  void build_neighbors(int step);
+  void measure_bounds();
+  void rebuild_neighbors(int step);
+  bool rebuild_due(int step) const {
+    return params_.rebuild_interval > 0 && step > 0 && step % params_.rebuild_interval == 0;
+  }
   double resolve_eps_tiled();
   double first_halo(std::size_t t) const;
   bool covers_all(std::size_t t, double halo) const;
@@ -118,7 +134,8 @@ class Run {
   double sample_lambda() const;
   void load_sample_positions(const h5::Dataset& positions);
   TileNeighbors tile_neighbors(std::size_t t) const;
-  const TileNeighbors& neighbors_of(std::size_t t, TileNeighbors& scratch);
+  std::shared_ptr<const TileNeighbors> neighbors_of(std::size_t t);
+  std::size_t pipeline_slots(std::uint64_t fixed);
   void read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
                            std::vector<Vec3>& local) const;
   bool run_steps(OutOfCoreReport& report);
@@ -165,6 +182,9 @@ class Run {
   double stop_lambda_ = 0.0;
   std::vector<std::int64_t> state_ = std::vector<std::int64_t>(kStateSize, 0);
   double eps_ = 0.0;
+  // The positions neighbourhoods are built from (the input's, the reference's or the current
+  // step's), and the bounds of every tile's points in it (the tile table's for the input).
+  std::string neighbor_source_ = layout::positions;
   Box global_bounds_{};
   std::uint64_t max_tile_rows_ = 0;
 
@@ -179,8 +199,9 @@ class Run {
   std::vector<Vec3> gather_positions_;
 
   // Neighbour lists of every tile, kept while they fit in part of the budget.
-  std::vector<TileNeighbors> cache_;
-  std::vector<char> cached_;
+  // Shared with the slots of the pipeline, so that dropping the cache never frees lists a tile
+  // in flight is computing with.
+  std::vector<std::shared_ptr<const TileNeighbors>> cache_;
   // Per tile: whether /run/neighbors/local holds its lists in local indices (written by this
   // process), and its halo rows.
   std::vector<char> local_written_;
@@ -191,6 +212,9 @@ class Run {
   std::uint64_t peak_ = 0;
   std::uint64_t max_working_ = 0;
   std::uint64_t largest_local_ = 0;
+  // Tiles in flight in the step pipeline, and the bytes one of them may hold.
+  std::uint64_t slots_ = 1;
+  std::uint64_t slot_estimate_ = 0;
 };
 
 void Run::account(std::uint64_t working) {
@@ -410,7 +434,7 @@ double Run::first_halo(std::size_t t) const {
 }
 
 LocalSet Run::gather_local(std::size_t t, double halo) const {
-  const h5::Dataset pos = file().dataset(layout::positions);
+  const h5::Dataset pos = file().dataset(neighbor_source_);
   const h5::Dataset orig = file().dataset(layout::original_index);
   const Box& own = tiles_.bounds[t];
   Box grown = own;
@@ -514,7 +538,7 @@ double Run::resolve_eps_tiled() {
   return np.eps_auto_factor * spacing;
 }
 
-void Run::build_neighbors() {
+void Run::build_neighbors(int step) {
   eps_ = resolve_eps_tiled();
   h5::Dataset rows_ds = file().dataset(layout::neighbor_rows);
   h5::Dataset counts_ds = file().dataset(layout::neighbor_counts);
@@ -575,7 +599,59 @@ void Run::build_neighbors() {
   }
   if (ranks_->rank() == 0) file().dataset(layout::run_eps).write_rows(0, 1, &eps_);
   state_[kNeighborsDone] = 1;
+  state_[kNeighborsStep] = step;
   commit_state();
+}
+
+void Run::measure_bounds() {
+  // Points move: the halo of a rebuild needs the bounds of every tile's current points. Each
+  // rank measures its own tiles; the maximum of (-min, max) over the ranks is every tile's.
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> extent(6 * tiles_.size(), -inf);
+  const h5::Dataset pos = file().dataset(neighbor_source_);
+  std::vector<Vec3> block;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t)
+    for (std::uint64_t first = tiles_.offsets[t]; first < tiles_.offsets[t + 1]; first += kScanBlock) {
+      const std::uint64_t count = std::min(kScanBlock, tiles_.offsets[t + 1] - first);
+      block.resize(count);
+      pos.read_rows(first, count, block.data()->data());
+      for (const Vec3& p : block)
+        for (Eigen::Index c = 0; c < 3; ++c) {
+          const std::size_t i = 6 * t + static_cast<std::size_t>(c);
+          extent[i] = std::max(extent[i], -p[c]);
+          extent[i + 3] = std::max(extent[i + 3], p[c]);
+        }
+    }
+  ranks_->max(extent);
+  global_bounds_ = {inf, inf, inf, -inf, -inf, -inf};
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    if (tiles_.rows(t) == 0) continue;
+    for (std::size_t c = 0; c < 3; ++c) {
+      tiles_.bounds[t][c] = -extent[6 * t + c];
+      tiles_.bounds[t][c + 3] = extent[6 * t + c + 3];
+      global_bounds_[c] = std::min(global_bounds_[c], tiles_.bounds[t][c]);
+      global_bounds_[c + 3] = std::max(global_bounds_[c + 3], tiles_.bounds[t][c + 3]);
+    }
+  }
+}
+
+void Run::rebuild_neighbors(int step) {
+  // smooth()'s rebuild: eps resolved again and the lists built from the step's positions,
+  // over the same tiles with a geometric halo around their current bounds.
+  neighbor_source_ = source_of_step(step);
+  measure_bounds();
+  build_neighbors(step);
+  // The lists in memory and in tile-local indices are the old ones.
+  cache_.assign(tiles_.size(), {});
+  cache_bytes_ = 0;
+  caching_ = true;
+  local_written_.assign(tiles_.size(), 0);
+  halo_rows_.assign(tiles_.size(), {});
+  halo_bytes_ = 0;
+  if (auto_lambda_on()) {
+    prepare_lambda_sample();
+    load_sample_positions(file().dataset(neighbor_source_));
+  }
 }
 
 // ---- the lambda sample ------------------------------------------------------------------------
@@ -681,42 +757,43 @@ TileNeighbors Run::tile_neighbors(std::size_t t) const {
   return nb;
 }
 
-const TileNeighbors& Run::neighbors_of(std::size_t t, TileNeighbors& scratch) {
-  if (caching_ && cached_[t]) return cache_[t];
+std::shared_ptr<const TileNeighbors> Run::neighbors_of(std::size_t t) {
+  if (caching_ && cache_[t]) return cache_[t];
   const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
+  auto nb = std::make_shared<TileNeighbors>();
   if (local_written_[t]) {
     // Lists in tile-local indices, written by this process's first pass: no remapping.
-    scratch.local.stride = k();
-    scratch.local.eps = eps_;
-    scratch.local.indices.resize(rows * static_cast<std::uint64_t>(k()));
-    scratch.local.counts.resize(rows);
-    file().dataset(layout::neighbor_local).read_rows(begin, rows, scratch.local.indices.data());
-    file().dataset(layout::neighbor_counts).read_rows(begin, rows, scratch.local.counts.data());
-    scratch.halo_rows = halo_rows_[t];
-    return scratch;
+    nb->local.stride = k();
+    nb->local.eps = eps_;
+    nb->local.indices.resize(rows * static_cast<std::uint64_t>(k()));
+    nb->local.counts.resize(rows);
+    file().dataset(layout::neighbor_local).read_rows(begin, rows, nb->local.indices.data());
+    file().dataset(layout::neighbor_counts).read_rows(begin, rows, nb->local.counts.data());
+    nb->halo_rows = halo_rows_[t];
+    return nb;
   }
-  scratch = tile_neighbors(t);
-  file().dataset(layout::neighbor_local).write_rows(begin, rows, scratch.local.indices.data());
-  halo_rows_[t] = scratch.halo_rows;
+  *nb = tile_neighbors(t);
+  file().dataset(layout::neighbor_local).write_rows(begin, rows, nb->local.indices.data());
+  halo_rows_[t] = nb->halo_rows;
   halo_bytes_ += bytes(halo_rows_[t]);
   local_written_[t] = 1;
   if (caching_) {
-    // Keep the lists while they fit next to everything else, with room for twice the
-    // largest working set seen so far.
-    const std::uint64_t others = persistent_bytes() - cache_bytes_ + 2 * max_working_;
-    if (others + cache_bytes_ + scratch.bytes() <= options_.memory_budget) {
-      cache_bytes_ += scratch.bytes();
-      cache_[t] = std::move(scratch);
-      cached_[t] = 1;
-      return cache_[t];
+    // Keep the lists while they fit next to everything else, with room for the tiles in
+    // flight (twice the largest working set seen so far, at least the estimate of the slots).
+    const std::uint64_t others =
+        persistent_bytes() - cache_bytes_ + std::max(2 * max_working_, slots_ * slot_estimate_);
+    if (others + cache_bytes_ + nb->bytes() <= options_.memory_budget) {
+      cache_bytes_ += nb->bytes();
+      cache_[t] = nb;
+      return nb;
     }
+    // Dropping the cache frees the lists no slot in flight holds (a slot keeps its own).
     caching_ = false;
     cache_.clear();
     cache_.shrink_to_fit();
-    cached_.clear();
     cache_bytes_ = 0;
   }
-  return scratch;
+  return nb;
 }
 
 void Run::read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
@@ -727,25 +804,53 @@ void Run::read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::
   if (!nb.halo_rows.empty()) source.read_selected(nb.halo_rows, local[rows].data());
 }
 
+std::size_t Run::pipeline_slots(std::uint64_t fixed) {
+  // The most bytes one tile in flight holds: its positions and halo, its next positions, its
+  // lists (when they are not cached) and its halo rows.
+  std::vector<std::uint64_t> halo;
+  if (file().exists(layout::neighbor_halo_counts))
+    halo = file().dataset(layout::neighbor_halo_counts).read_all<std::uint64_t>();
+  const std::uint64_t per_row = 2 * sizeof(Vec3) + static_cast<std::uint64_t>(k()) * sizeof(Index) + sizeof(std::uint16_t);
+  slot_estimate_ = 0;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    const std::uint64_t rows = tiles_.rows(t), h = t < halo.size() ? halo[t] : rows;
+    slot_estimate_ = std::max(slot_estimate_, rows * per_row + h * (sizeof(Vec3) + sizeof(std::uint64_t)));
+  }
+  // As many slots as asked for, as long as they fit next to what the run keeps.
+  const std::uint64_t base = persistent_bytes() + fixed;
+  const std::uint64_t fit = options_.memory_budget > base
+                                ? (options_.memory_budget - base) / std::max<std::uint64_t>(slot_estimate_, 1)
+                                : 1;
+  slots_ = std::clamp<std::uint64_t>(fit, 1, static_cast<std::uint64_t>(std::max(1, options_.tiles_in_flight)));
+  return static_cast<std::size_t>(slots_);
+}
+
 bool Run::run_steps(OutOfCoreReport& report) {
   const int start = static_cast<int>(state_[kCompletedSteps]);
   report.resumed_from = start;
   const bool every_step = auto_lambda_on() && params_.lambda_every_step;
   double lambda = params_.flow.lambda;
+  // The step whose positions the lists in force were built from (a rebuild at `start` itself
+  // may not have happened yet: then the loop does it).
+  const int built_at = static_cast<int>(state_[kNeighborsStep]);
   if (auto_lambda_on() && !every_step) {
-    load_sample_positions(file().dataset(layout::positions));
-    lambda = sample_lambda();
-    gather_positions_ = {};
+    if (built_at > 0 && built_at < start) {
+      // Measured once after the last rebuild, on positions that are gone: the step log has it.
+      double entry[2];
+      file().dataset(layout::run_step_log).read_rows(static_cast<std::uint64_t>(start - 1), 1, entry);
+      lambda = entry[0];
+    } else {
+      load_sample_positions(file().dataset(source_of_step(built_at)));
+      lambda = sample_lambda();
+      gather_positions_ = {};
+    }
   }
   if (every_step) load_sample_positions(file().dataset(source_of_step(start)));
   cache_.assign(tiles_.size(), {});
-  cached_.assign(tiles_.size(), 0);
   local_written_.assign(tiles_.size(), 0);
   halo_rows_.assign(tiles_.size(), {});
   std::vector<Index> identity(max_tile_rows_);
   std::iota(identity.begin(), identity.end(), Index{0});
-  std::vector<Vec3> local, next;
-  TileNeighbors scratch;
   h5::Dataset log = file().dataset(layout::run_step_log);
   const std::uint64_t writes = tiles_to_write();
   int committed_here = 0;
@@ -756,8 +861,40 @@ bool Run::run_steps(OutOfCoreReport& report) {
     log.read_rows(0, 1, entry);
     lambda_input = entry[0];
   }
+  // The tiles of a step go through a bounded pipeline (pipeline.hpp): tile i+1 and its halo
+  // are read while tile i is computed and tile i-1 written, all HDF5 calls on this thread.
+  // Each slot holds one tile in flight; every slot's buffers count in the budget.
+  struct Slot {
+    std::size_t tile = 0;
+    std::shared_ptr<const TileNeighbors> nb;
+    std::vector<Vec3> local, next;
+    StepStats stats;
+  };
+  std::vector<std::size_t> work;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t)
+    if (tiles_.rows(t) > 0) work.push_back(t);
+  const std::size_t slot_count = pipeline_slots(bytes(identity));
+  std::vector<Slot> slots(slot_count);
+  const auto slots_bytes = [&] {
+    std::uint64_t total = bytes(identity);
+    for (const Slot& s : slots) {
+      total += bytes(s.local) + bytes(s.next);
+      if (s.nb && !(caching_ && cache_[s.tile] == s.nb)) total += s.nb->bytes();
+    }
+    return total;
+  };
   for (int step = start; step < params_.steps; ++step) {
-    const auto t0 = Clock::now();
+    auto t0 = Clock::now();
+    if (rebuild_due(step) && state_[kNeighborsStep] != step) {
+      rebuild_neighbors(step);
+      ++report.rebuilds;
+      if (auto_lambda_on() && !every_step) {
+        lambda = sample_lambda();
+        gather_positions_ = {};
+      }
+      report.seconds_neighbors += seconds_since(t0);
+      t0 = Clock::now();
+    }
     if (every_step) lambda = sample_lambda();
     if (stops_automatically()) {
       if (step == 0) lambda_input = lambda;
@@ -770,24 +907,35 @@ bool Run::run_steps(OutOfCoreReport& report) {
     const h5::Dataset source = file().dataset(source_of_step(step));
     h5::Dataset target = file().dataset(positions_buffer((step + 1) % 2));
     std::size_t degenerate = 0;
-    for (std::size_t t = first_tile_; t < end_tile_; ++t) {
-      const std::uint64_t rows = tiles_.rows(t), begin = tiles_.offsets[t];
-      if (rows == 0) continue;
-      const TileNeighbors& nb = neighbors_of(t, scratch);
-      read_tile_positions(t, nb, source, local);
-      next.resize(rows);
-      const StepStats stats =
-          euler_step(local, nb.local, std::span<const Index>(identity.data(), rows), params_.flow, lambda, next);
-      degenerate += stats.degenerate;
-      target.write_rows(begin, rows, next.data()->data(), h5::Transfer::Collective);
+    PipelineStages stages;
+    stages.read = [&](std::size_t item, std::size_t slot) {
+      Slot& s = slots[slot];
+      s.tile = work[item];
+      s.nb = neighbors_of(s.tile);
+      read_tile_positions(s.tile, *s.nb, source, s.local);
+      s.next.resize(tiles_.rows(s.tile));
+      largest_local_ = std::max<std::uint64_t>(largest_local_, s.local.size());
+      account(slots_bytes());
+    };
+    stages.compute = [&](std::size_t slot) {
+      Slot& s = slots[slot];
+      s.stats = euler_step(s.local, s.nb->local, std::span<const Index>(identity.data(), s.next.size()),
+                           params_.flow, lambda, s.next);
+    };
+    stages.write = [&](std::size_t, std::size_t slot) {
+      Slot& s = slots[slot];
+      const std::uint64_t begin = tiles_.offsets[s.tile], rows = tiles_.rows(s.tile);
+      degenerate += s.stats.degenerate;
+      target.write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
       if (every_step) {
         auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
         for (; it != gather_rows_.end() && *it < begin + rows; ++it)
-          gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = next[*it - begin];
+          gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = s.next[*it - begin];
       }
-      largest_local_ = std::max<std::uint64_t>(largest_local_, local.size());
-      account(bytes(local) + bytes(next) + (caching_ ? 0 : scratch.bytes()) + bytes(identity));
-    }
+      s.nb.reset();  // lists that are not cached are freed with their tile
+    };
+    run_pipeline(work.size(), slot_count, stages);
+    // Collective writes: as many per rank as the rank with the most tiles.
     for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
     if (every_step && ranks_->size() > 1) {
       // Each rank updated the sample's positions in its own tiles: exchange them.
@@ -804,6 +952,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     commit_state();
     report.steps = step + 1;
     report.lambda = lambda;
+    report.eps = eps_;
     report.degenerate = degenerate;
     report.seconds_steps += seconds_since(t0);
     progress("step", static_cast<std::uint64_t>(step + 1), static_cast<std::uint64_t>(params_.steps));
@@ -844,7 +993,6 @@ std::size_t Run::write_attributes(double lambda) {
   std::vector<Vec3> local, vn, vd1, vd2;
   std::vector<double> vk1, vk2, vmean, vlap;
   std::vector<std::uint8_t> vfeature;
-  TileNeighbors scratch;
   Neighborhoods extended;
   std::size_t degenerate = 0;
   const std::uint64_t writes = tiles_to_write();
@@ -852,7 +1000,9 @@ std::size_t Run::write_attributes(double lambda) {
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t rows = tiles_.rows(t), begin = tiles_.offsets[t];
     if (rows == 0) continue;
-    const TileNeighbors& nb = neighbors_of(t, scratch);
+    const std::shared_ptr<const TileNeighbors> lists = neighbors_of(t);
+    const TileNeighbors& nb = *lists;
+    const bool cached = caching_ && cache_[t] == lists;
     read_tile_positions(t, nb, source, local);
     // compute_attributes itself on the tile: the halo rows get no neighbours (they are
     // evaluated elsewhere), and two extra points at the corners of the whole cloud's bounding
@@ -887,7 +1037,7 @@ std::size_t Run::write_attributes(double lambda) {
     feature.write_rows(begin, rows, vfeature.data(), together);
     account(bytes(local) + bytes(extended.indices) + bytes(extended.counts) +
             pa.normal.size() * (9 * sizeof(double) + 4 * sizeof(double) + 1) + 3 * bytes(vn) + 4 * bytes(vk1) +
-            bytes(vfeature) + (caching_ ? 0 : scratch.bytes()));
+            bytes(vfeature) + (cached ? 0 : nb.bytes()));
     progress("attributes", t + 1 - first_tile_, end_tile_ - first_tile_);
   }
   for (std::uint64_t w = my_tiles(); w < writes; ++w) {
@@ -915,8 +1065,6 @@ void Run::finish(std::size_t attributes_degenerate, double lambda) {
 
 OutOfCoreReport Run::run() {
   params_.validate();
-  require(params_.rebuild_interval == 0,
-          "rebuilding neighbourhoods (--rebuild-every) is not supported out of core yet");
   require(options_.memory_budget > 0, "the memory budget must be positive");
   io::require_distinct(input_path_, output_);
   io::require_distinct(input_path_, partial_name(output_));
@@ -927,7 +1075,7 @@ OutOfCoreReport Run::run() {
   report.tiles = tiles_.size();
   auto t0 = Clock::now();
   balance(false);  // by points: the halos are not known yet
-  if (state_[kNeighborsDone] == 0) build_neighbors();
+  if (state_[kNeighborsDone] == 0) build_neighbors(0);
   else file().dataset(layout::run_eps).read_rows(0, 1, &eps_);
   report.eps = eps_;
   balance(true);
@@ -937,6 +1085,7 @@ OutOfCoreReport Run::run() {
   report.steps = static_cast<int>(state_[kCompletedSteps]);
   if (!run_steps(report)) {
     report.neighbors_cached = caching_;
+    report.tiles_in_flight = static_cast<int>(slots_);
     report.peak_accounted_bytes = peak_;
     report.largest_tile_with_halo = largest_local_;
     file_.reset();
@@ -964,6 +1113,7 @@ OutOfCoreReport Run::run() {
   ranks_->barrier();  // the run is in place when any rank returns
   report.finished = true;
   report.neighbors_cached = caching_;
+  report.tiles_in_flight = static_cast<int>(slots_);
   report.peak_accounted_bytes = peak_;
   report.largest_tile_with_halo = largest_local_;
   return report;

@@ -172,7 +172,8 @@ int run_smooth_out_of_core(const Args& args) {
     j.add("memory_budget_bytes", static_cast<std::size_t>(ooc.memory_budget));
     j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
     j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));
-    j.add("neighbors_cached", report.neighbors_cached);
+    j.add("neighbors_cached", report.neighbors_cached).add("tiles_in_flight", report.tiles_in_flight);
+    j.add("rebuilds", report.rebuilds);
     j.add("seconds", seconds).add("point_steps_per_second", rate).add("degenerate_points", report.degenerate);
     std::cout << j.str() << std::endl;
   }

@@ -12,6 +12,12 @@
 //   (in original point order), computed from gathered values;
 // - each point's step reads only its own step-n position and its neighbours' (Jacobi), in
 //   the list order, so any tiling gives the same bits.
+// - rebuilds (SmoothParams::rebuild_interval) resolve eps again and build the lists the same
+//   way from the step's positions, with halos around the tiles' current bounds.
+//
+// Each step is a bounded pipeline (pipeline.hpp): tile i+1 and its halo are read while tile
+// i is computed (parallel_for) and tile i-1 written; every HDF5 call stays on the calling
+// thread, and the buffers of the tiles in flight count in the memory budget.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -31,6 +37,10 @@ struct OutOfCoreOptions {
   bool resume = false;
   /// Compute the per-point attributes (normals, curvatures, feature classes) at the end.
   bool attributes = true;
+  /// Tiles in flight in each step's pipeline (pipeline.hpp): one read, one computed, one
+  /// written. Fewer when they do not fit in the budget next to what the run keeps; 1: read,
+  /// compute and write one tile after the other. Results do not depend on it.
+  int tiles_in_flight = 3;
   /// Stop (as if killed) after this many steps committed by this call; < 0: never. For tests.
   int stop_after_steps = -1;
   /// Called with a phase name ("eps", "neighbors", "step", "attributes") and progress (of this
@@ -59,9 +69,13 @@ struct OutOfCoreReport {
   /// The largest working set the run accounted for (bytes), and the largest tile + halo.
   std::uint64_t peak_accounted_bytes = 0;
   std::uint64_t largest_tile_with_halo = 0;
+  /// Tiles in flight in the step pipeline (OutOfCoreOptions::tiles_in_flight, or fewer).
+  int tiles_in_flight = 1;
   /// Halo rows a step reads, summed over the tiles (the I/O of a step beyond the tiles
   /// themselves); 0 when the run file does not record them.
   std::uint64_t halo_points = 0;
+  /// Neighbourhood rebuilds done by this call (SmoothParams::rebuild_interval).
+  int rebuilds = 0;
   double seconds_neighbors = 0.0;
   double seconds_steps = 0.0;
   double seconds_attributes = 0.0;
@@ -72,8 +86,8 @@ std::filesystem::path partial_name(const std::filesystem::path& output);
 
 /// Runs `params` on the container `input` (never modified) and writes a container with the
 /// run to `output`: first into partial_name(output), renamed to `output` when finished.
-/// Throws ParamError (bad or unsupported parameters: rebuilding neighbourhoods; a tile that
-/// does not fit in the budget; a partial run with other parameters), IoError (files).
+/// Throws ParamError (bad parameters; a tile that does not fit in the budget; a partial run
+/// with other parameters), IoError (files).
 OutOfCoreReport smooth_out_of_core(const std::filesystem::path& input,
                                    const std::filesystem::path& output, const SmoothParams& params,
                                    const OutOfCoreOptions& options = {});
