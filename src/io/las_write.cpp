@@ -60,13 +60,19 @@ int choose_format(const PointTable& table) {
 // Offset: the bounding box minimum rounded down; scale: the finest power of ten (>= 1e-9)
 // at which the extent above the offset fits in int32.
 PositionQuantization choose_quantization(const std::vector<Vec3>& positions) {
-  PositionQuantization q;
-  if (positions.empty()) return q;
+  if (positions.empty()) return PositionQuantization{};
   Vec3 lo = positions[0], hi = positions[0];
   for (const Vec3& p : positions) {
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
   }
+  return las_quantization_for(lo, hi);
+}
+
+}  // namespace
+
+PositionQuantization las_quantization_for(const Vec3& lo, const Vec3& hi) {
+  PositionQuantization q;
   for (int a = 0; a < 3; ++a) {
     q.offset[a] = std::floor(lo[a]);
     const double extent = hi[a] - q.offset[a];
@@ -77,6 +83,8 @@ PositionQuantization choose_quantization(const std::vector<Vec3>& positions) {
   }
   return q;
 }
+
+namespace {
 
 std::uint16_t today_day_of_year(std::uint16_t& year) {
   const std::time_t now = std::time(nullptr);

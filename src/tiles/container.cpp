@@ -25,6 +25,76 @@ fs::path temporary_name(const fs::path& target) {
   return target.parent_path() / name;
 }
 
+
+// The bytes of a LAS source beyond its points and standard header fields, opaque: every
+// VLR and EVLR (e.g. the coordinate reference system), the Extra Bytes descriptors, the
+// project GUID and system identifier. See layout::las_records.
+void write_bytes(h5::File& f, const std::string& path, std::string_view bytes) {
+  h5::Dataset d = f.create_dataset(path, h5::Type::UInt8, bytes.size(), 0, {});
+  if (!bytes.empty()) d.write_rows(0, bytes.size(), reinterpret_cast<const std::uint8_t*>(bytes.data()));
+}
+
+std::string read_bytes(const h5::File& f, const std::string& path) {
+  const std::vector<std::uint8_t> v = f.dataset(path).read_all<std::uint8_t>();
+  return std::string(v.begin(), v.end());
+}
+
+// A name field of a record: NUL-padded to `width` bytes.
+std::string padded(const std::string& text, std::size_t width) {
+  std::string out = text.substr(0, width);
+  out.resize(width, '\0');
+  return out;
+}
+
+std::string unpadded(std::string_view field) { return std::string(field.substr(0, field.find('\0'))); }
+
+void write_las_records(h5::File& f, const io::LasMetadata& las) {
+  const std::string g = layout::las_records;
+  f.create_group(g);
+  std::string payload, names;
+  std::vector<std::uint64_t> table;
+  for (const io::LasRecord& r : las.records) {
+    table.insert(table.end(), {payload.size(), r.data.size(), r.record_id, r.extended ? 1u : 0u});
+    payload += r.data;
+    names += padded(r.user_id, 16) + padded(r.description, 32);
+  }
+  h5::Dataset t = f.create_dataset(g + "/table", h5::Type::UInt64, las.records.size(), 4, {});
+  if (!table.empty()) t.write_rows(0, las.records.size(), table.data());
+  h5::Dataset n = f.create_dataset(g + "/names", h5::Type::UInt8, las.records.size(), 48, {});
+  if (!names.empty()) n.write_rows(0, las.records.size(), reinterpret_cast<const std::uint8_t*>(names.data()));
+  write_bytes(f, g + "/payload", payload);
+  write_bytes(f, g + "/extra_bytes_descriptors", las.extra_bytes_descriptors);
+  write_bytes(f, g + "/project_guid", las.project_guid);
+  f.set_attribute(g, "system_identifier", las.system_identifier);
+}
+
+void read_las_records(const h5::File& f, io::LasMetadata& las) {
+  const std::string g = layout::las_records;
+  if (!f.exists(g)) return;  // a container written before the records were kept
+  const h5::Dataset t = f.dataset(g + "/table"), n = f.dataset(g + "/names");
+  if (t.width() != 4 || n.width() != 48 || n.rows() != t.rows()) f.fail(g, "record table and names do not match");
+  const std::vector<std::uint64_t> table = t.read_all<std::uint64_t>();
+  const std::string names = read_bytes(f, g + "/names"), payload = read_bytes(f, g + "/payload");
+  las.records.clear();
+  for (std::size_t i = 0; i < t.rows(); ++i) {
+    const std::uint64_t offset = table[4 * i], size = table[4 * i + 1];
+    if (offset > payload.size() || size > payload.size() - offset || table[4 * i + 2] > 65535 ||
+        (table[4 * i + 3] == 0 && size > 65535))
+      f.fail(g, "record " + std::to_string(i) + " lies outside the payload or out of range");
+    io::LasRecord r;
+    r.user_id = unpadded(std::string_view(names).substr(48 * i, 16));
+    r.description = unpadded(std::string_view(names).substr(48 * i + 16, 32));
+    r.record_id = static_cast<std::uint16_t>(table[4 * i + 2]);
+    r.extended = table[4 * i + 3] != 0;
+    r.data = payload.substr(offset, size);
+    las.records.push_back(std::move(r));
+  }
+  las.extra_bytes_descriptors = read_bytes(f, g + "/extra_bytes_descriptors");
+  las.project_guid = read_bytes(f, g + "/project_guid");
+  if (las.project_guid.size() != 16) f.fail(g, "project_guid must have 16 bytes");
+  las.system_identifier = f.string_attribute(g, "system_identifier");
+}
+
 }  // namespace
 
 // The LAS integer grid and format of a LAS input, so that export to LAS reproduces the
@@ -41,6 +111,7 @@ void write_source_format(h5::File& f, const io::PointTable& table) {
     f.set_attribute(layout::points, "las_point_format", std::int64_t{table.las->point_format});
     f.set_attribute(layout::points, "las_global_encoding", std::int64_t{table.las->global_encoding});
     f.set_attribute(layout::points, "las_file_source_id", std::int64_t{table.las->file_source_id});
+    write_las_records(f, *table.las);
   }
 }
 
@@ -70,6 +141,7 @@ void read_source_format(const h5::File& f, io::PointTable& table) {
     las.point_format = static_cast<int>(in_range("las_point_format", 10));
     las.global_encoding = static_cast<std::uint16_t>(in_range("las_global_encoding", 65535));
     las.file_source_id = static_cast<std::uint16_t>(in_range("las_file_source_id", 65535));
+    read_las_records(f, las);
     table.las = las;
   }
 }

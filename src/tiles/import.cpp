@@ -417,6 +417,10 @@ void Import::count_and_bounds() {
     n_ += got;
     progress("count", n_, 0);
   }
+  // A LAS reader adds the EVLRs (after the points) to its schema once the last point is read
+  // (with several ranks only the last rank's share reaches them, so an MPI import keeps the
+  // VLRs but not the EVLRs).
+  schema_.las = reader->schema().las;
   if (size > 1) {
     if (end_ != std::numeric_limits<std::uint64_t>::max() && n_ != end_ - first_) changed(input_);
     // Every rank's reader reads the file's last point (seeking to it), as a single process's

@@ -3,13 +3,16 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cctype>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
 #include "run_support.hpp"
 #include "pointfair/colour.hpp"
+#include "pointfair/io/las.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/container_reader.hpp"
@@ -131,13 +134,30 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
   io::PointTable schema = reader.schema();
   add_columns(schema, PointAttributes{});
   summary.points = *reader.count();
+  const std::size_t chunk_points = reader.chunk_points_for(options.memory_budget);
+  std::string extension = output.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (extension == ".las" && !schema.quantization && summary.points > 0) {
+    // LAS from a float source: the integer grid depends on the bounds of every point, so a
+    // first pass (in row order) measures them, and the LAS writer streams with that grid (the
+    // same bytes as writing the whole cloud at once).
+    tiles::ContainerChunkReader first(container, {.original_order = false,
+                                                  .result_positions = !options.input_positions});
+    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    io::PointTable chunk;
+    while (first.read(chunk, chunk_points) > 0)
+      for (const Vec3& p : chunk.positions) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+    schema.quantization = io::las_quantization_for(lo, hi);
+  }
   io::WriteOptions write;
   write.input = input;
   if (out.encoding == "ascii") write.ply_encoding = io::PlyEncoding::Ascii;
   else if (out.encoding == "binary-be") write.ply_encoding = io::PlyEncoding::BinaryBigEndian;
   else write.ply_encoding = io::PlyEncoding::BinaryLittleEndian;
   const auto writer = io::open_point_writer(output, schema, summary.points, write);
-  const std::size_t chunk_points = reader.chunk_points_for(options.memory_budget);
   io::PointTable chunk;
   while (reader.read(chunk, chunk_points) > 0) {
     add_columns(chunk, reader.run_attributes());

@@ -65,6 +65,11 @@ std::unique_ptr<PointChunkReader> open_las_reader(const std::filesystem::path& f
 /// name too long for an extra bytes descriptor (32 characters), or a write failure.
 void write_las(const std::filesystem::path& file, const PointTable& table);
 
+/// The integer grid write_las chooses for positions within [lo, hi] when the table has no
+/// quantization (see write_las). A streaming writer given it in its schema writes the same
+/// bytes as write_las without holding the points.
+PositionQuantization las_quantization_for(const Vec3& lo, const Vec3& hi);
+
 /// write_las a chunk at a time, with the quantization and LAS metadata of `schema`: with a
 /// quantization (a table read from LAS, a container imported from one) the records stream and
 /// the header is completed by finish() (the same bytes as write_las). Without one the grid

@@ -22,6 +22,8 @@ inline constexpr const char* points = "/points";
 inline constexpr const char* positions = "/points/positions";
 inline constexpr const char* original_index = "/points/original_index";
 inline constexpr const char* attributes = "/points/attributes";
+/// A LAS source's VLRs and EVLRs (table, names, payload), Extra Bytes descriptors, GUID.
+inline constexpr const char* las_records = "/points/las_records";
 inline constexpr const char* tiles = "/tiles";
 inline constexpr const char* tile_offsets = "/tiles/offsets";
 inline constexpr const char* tile_bounds = "/tiles/bounds";
