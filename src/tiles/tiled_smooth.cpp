@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -18,7 +19,9 @@
 #include "pointfair/params_error.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/tiles/balance.hpp"
+#include "pointfair/io/point_file.hpp"
 #include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/container_reader.hpp"
 #include "pointfair/tiles/pipeline.hpp"
 #include "pointfair/tiles/ranks.hpp"
 #include "pointfair/version.hpp"
@@ -35,6 +38,8 @@ double seconds_since(Clock::time_point t0) {
 }
 
 // Slots of /run/state, the commit record: one small contiguous dataset rewritten in place.
+// kStepBuffer: where the positions of step kCompletedSteps are (0: the input, b > 0:
+// positions_{b-1}); a step or temporal block writes into the other buffer.
 // kNeighborsStep: the step whose positions the stored neighbour lists were built from (0: the
 // input or the reference; a rebuild at step s overwrites them in place and records s).
 enum StateSlot {
@@ -43,13 +48,17 @@ enum StateSlot {
   kCompletedSteps = 2,
   kFinished = 3,
   kNeighborsStep = 4,
-  kStateSize = 5
+  kStepBuffer = 5,
+  kStateSize = 6
 };
 
 // Rows read at a time when filtering whole tiles for halos.
 constexpr std::uint64_t kScanBlock = 1u << 15;
 // A computed distance is trusted to decide "inside the halo" only with this relative margin.
 constexpr double kHaloMargin = 1e-9;
+
+// SmoothOptions::neighbor_reference out of core: the reference's positions in row order.
+constexpr const char* kReferencePositions = "/run/reference_positions";
 
 std::string positions_buffer(int parity) { return "/run/positions_" + std::to_string(parity); }
 
@@ -101,6 +110,49 @@ struct TileNeighbors {
   }
 };
 
+// One tile in flight of a temporal block of h steps: its points (levels 0) and the rings of
+// its neighbour-list closure (level l + 1: the neighbours of levels <= l not already in them),
+// h levels deep, in local indices ordered by level. Step j of the block moves the points of
+// levels 0 .. h - j, each from the positions of step j - 1 of its neighbours (one level
+// further out at most), so after h steps the tile's points hold exactly the in-core step.
+struct BlockSlot {
+  std::size_t tile = 0;
+  std::vector<std::size_t> level_end;      // end of level l in local indices, l = 0 .. h
+  std::vector<Neighborhoods> lists;        // lists of levels 0 .. h - 1, local indices
+  std::vector<Vec3> cur, next;
+  std::vector<Index> ids;                  // 0, 1, 2, ...
+  std::vector<std::size_t> degenerate;     // per step of the block, the tile's own points
+  std::vector<std::uint64_t> rows;         // container row of each local point
+  std::vector<std::uint64_t> sorted_rows;  // ring rows ascending, and their local indices
+  std::vector<Index> sorted_local;
+  std::vector<std::uint32_t> global;       // lists of a level in container rows, while reading
+  std::vector<std::uint16_t> counts;
+  std::vector<Vec3> scratch;
+
+  std::uint64_t bytes() const {
+    std::uint64_t b = tiles::bytes(level_end) + tiles::bytes(cur) + tiles::bytes(next) + tiles::bytes(ids) +
+                      tiles::bytes(degenerate) + tiles::bytes(rows) + tiles::bytes(sorted_rows) +
+                      tiles::bytes(sorted_local) + tiles::bytes(global) + tiles::bytes(counts) + tiles::bytes(scratch);
+    for (const Neighborhoods& l : lists) b += tiles::bytes(l.indices) + tiles::bytes(l.counts);
+    return b;
+  }
+
+  void compute(const FlowParams& flow, double lambda) {
+    const int h = static_cast<int>(lists.size());
+    for (int j = 1; j <= h; ++j) {
+      const std::size_t last = static_cast<std::size_t>(h - j);
+      for (std::size_t l = 0; l <= last; ++l) {
+        const std::size_t begin = l == 0 ? 0 : level_end[l - 1], end = level_end[l];
+        const StepStats stats =
+            euler_step(cur, lists[l], std::span<const Index>(ids.data() + begin, end - begin), flow, lambda,
+                       std::span<Vec3>(next.data() + begin, end - begin));
+        if (l == 0) degenerate[static_cast<std::size_t>(j - 1)] = stats.degenerate;
+      }
+      std::copy(next.begin(), next.begin() + static_cast<std::ptrdiff_t>(level_end[last]), cur.begin());
+    }
+  }
+};
+
 class Run {
  public:
   Run(const fs::path& input, const fs::path& output, const SmoothParams& params, const OutOfCoreOptions& options)
@@ -121,6 +173,8 @@ class Run {
   std::uint64_t my_first_row() const { return tiles_.offsets[first_tile_]; }
   std::uint64_t my_end_row() const { return tiles_.offsets[end_tile_]; }
   void build_neighbors(int step);
+  std::string key() const;
+  void load_reference();
   void measure_bounds();
   void rebuild_neighbors(int step);
   bool rebuild_due(int step) const {
@@ -160,9 +214,14 @@ class Run {
     return params_.flow.flow == Flow::Anisotropic && auto_lambda_on() && params_.lambda_every_step &&
            params_.stop_lambda_ratio > 0.0;
   }
-  std::string source_of_step(int step) const {
-    return step == 0 ? std::string(layout::positions) : positions_buffer(step % 2);
+  std::string current_source() const {
+    return state_[kStepBuffer] == 0 ? std::string(layout::positions)
+                                    : positions_buffer(static_cast<int>(state_[kStepBuffer] - 1));
   }
+  // The buffer (kStepBuffer code) the next step or block writes: never the one it reads.
+  std::int64_t target_code() const { return state_[kStepBuffer] == 2 ? 1 : 2; }
+  void read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s);
+  int block_length(int step) const;
 
   fs::path input_path_, output_;
   SmoothParams params_;
@@ -215,6 +274,9 @@ class Run {
   // Tiles in flight in the step pipeline, and the bytes one of them may hold.
   std::uint64_t slots_ = 1;
   std::uint64_t slot_estimate_ = 0;
+  // Rows of positions and of neighbour lists read by the steps (their I/O volume).
+  std::uint64_t rows_read_ = 0;
+  std::uint64_t list_rows_read_ = 0;
 };
 
 void Run::account(std::uint64_t working) {
@@ -307,7 +369,7 @@ void Run::create(const fs::path& partial) {
   f.copy_from(in, layout::points, layout::points);
   f.copy_from(in, layout::tiles, layout::tiles);
 
-  f.set_attribute(layout::run, "parameters", parameters_key(params_));
+  f.set_attribute(layout::run, "parameters", key());
   f.set_attribute(layout::run, "input_name", input_path_.filename().string());
   f.set_attribute(layout::run, "input_size_bytes", static_cast<std::int64_t>(fs::file_size(input_path_)));
   f.set_attribute(layout::run, "tool_version", version());
@@ -348,6 +410,10 @@ void Run::create(const fs::path& partial) {
                    early);
   f.create_dataset(positions_buffer(0), h5::Type::Float64, n_, 3, rows);
   f.create_dataset(positions_buffer(1), h5::Type::Float64, n_, 3, rows);
+  if (!options_.neighbor_reference.empty()) {
+    f.create_dataset(kReferencePositions, h5::Type::Float64, n_, 3, rows);
+    f.set_attribute(layout::run, "neighbors_from", options_.neighbor_reference.filename().string());
+  }
   if (options_.attributes) {
     f.create_group(layout::run_attributes);
     const std::string a = layout::run_attributes;
@@ -399,7 +465,7 @@ void Run::open_or_create() {
     }
     if (usable) {
       const std::string stored = file().string_attribute(layout::run, "parameters");
-      if (stored != parameters_key(params_))
+      if (stored != key())
         throw ParamError(partial.string() + " was started with other parameters (" + stored +
                          "); run with those, or remove the file");
       if (point_count(file()) != n_)
@@ -603,6 +669,70 @@ void Run::build_neighbors(int step) {
   commit_state();
 }
 
+std::string Run::key() const {
+  std::string k = parameters_key(params_);
+  if (!options_.neighbor_reference.empty()) {
+    std::error_code ec;
+    const auto size = fs::file_size(options_.neighbor_reference, ec);
+    k += " neighbors_from=" + options_.neighbor_reference.filename().string() + ":" +
+         std::to_string(ec ? 0 : size);
+  }
+  return k;
+}
+
+void Run::load_reference() {
+  // The reference lists its points in the input's original order; rows hold them in tile
+  // order. In passes over blocks of original indices that fit in an eighth of the budget: read the
+  // block from the reference (streamed from its start), then put each of this rank's rows
+  // whose original index falls in it.
+  const fs::path& path = options_.neighbor_reference;
+  const auto open = [&]() -> std::unique_ptr<io::PointChunkReader> {
+    std::string e = path.extension().string();
+    for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (e == ".h5" || e == ".hdf5") return std::make_unique<ContainerChunkReader>(path);
+    return io::open_point_reader(path);
+  };
+  const h5::Dataset orig = file().dataset(layout::original_index);
+  h5::Dataset target = file().dataset(kReferencePositions);
+  constexpr std::size_t kChunk = 1u << 14;
+  const std::uint64_t block = std::max<std::uint64_t>(1024, options_.memory_budget / 8 / sizeof(Vec3));
+  std::vector<Vec3> values, rows;
+  std::vector<std::uint64_t> index;
+  io::PointTable chunk;
+  for (std::uint64_t a = 0; a < std::max<std::uint64_t>(n_, 1); a += block) {
+    const std::uint64_t b = std::min(n_, a + block);
+    values.assign(b - a, Vec3::Zero());
+    const auto reader = open();
+    std::uint64_t at = 0;
+    // The first pass reads the whole reference, to check its size.
+    while (a == 0 || at < b) {
+      const std::size_t got = reader->read(chunk, kChunk);
+      if (got == 0) break;
+      for (std::size_t i = 0; i < got; ++i)
+        if (at + i >= a && at + i < b) values[at + i - a] = chunk.positions[i];
+      at += got;
+      account(bytes(values) + bytes(chunk.positions) + chunk.attributes.size() * kChunk * sizeof(double));
+    }
+    if (a == 0 && at != n_)
+      throw ParamError("the neighbour reference " + path.string() + " has " + std::to_string(at) +
+                       " points, the input " + std::to_string(n_));
+    for (std::uint64_t first = my_first_row(); first < my_end_row(); first += kScanBlock) {
+      const std::uint64_t count = std::min(kScanBlock, my_end_row() - first);
+      index.resize(count);
+      orig.read_rows(first, count, index.data());
+      const bool all = std::all_of(index.begin(), index.end(), [&](std::uint64_t o) { return o >= a && o < b; });
+      const bool any = all || std::any_of(index.begin(), index.end(), [&](std::uint64_t o) { return o >= a && o < b; });
+      if (!any) continue;
+      rows.resize(count);
+      if (!all) target.read_rows(first, count, rows.data()->data());
+      for (std::uint64_t r = 0; r < count; ++r)
+        if (index[r] >= a && index[r] < b) rows[r] = values[index[r] - a];
+      target.write_rows(first, count, rows.data()->data());
+    }
+  }
+  values = {};
+}
+
 void Run::measure_bounds() {
   // Points move: the halo of a rebuild needs the bounds of every tile's current points. Each
   // rank measures its own tiles; the maximum of (-min, max) over the ranks is every tile's.
@@ -638,7 +768,7 @@ void Run::measure_bounds() {
 void Run::rebuild_neighbors(int step) {
   // smooth()'s rebuild: eps resolved again and the lists built from the step's positions,
   // over the same tiles with a geometric halo around their current bounds.
-  neighbor_source_ = source_of_step(step);
+  neighbor_source_ = current_source();
   measure_bounds();
   build_neighbors(step);
   // The lists in memory and in tile-local indices are the old ones.
@@ -770,9 +900,11 @@ std::shared_ptr<const TileNeighbors> Run::neighbors_of(std::size_t t) {
     file().dataset(layout::neighbor_local).read_rows(begin, rows, nb->local.indices.data());
     file().dataset(layout::neighbor_counts).read_rows(begin, rows, nb->local.counts.data());
     nb->halo_rows = halo_rows_[t];
+    list_rows_read_ += rows;
     return nb;
   }
   *nb = tile_neighbors(t);
+  list_rows_read_ += rows;
   file().dataset(layout::neighbor_local).write_rows(begin, rows, nb->local.indices.data());
   halo_rows_[t] = nb->halo_rows;
   halo_bytes_ += bytes(halo_rows_[t]);
@@ -802,6 +934,101 @@ void Run::read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::
   local.resize(rows + nb.halo_rows.size());
   source.read_rows(tiles_.offsets[t], rows, local.data()->data());
   if (!nb.halo_rows.empty()) source.read_selected(nb.halo_rows, local[rows].data());
+}
+
+int Run::block_length(int step) const {
+  int h = std::min(std::max(1, options_.temporal_block), params_.steps - step);
+  // A block never spans a rebuild: the lists are fixed inside it.
+  if (params_.rebuild_interval > 0)
+    h = std::min(h, params_.rebuild_interval - step % params_.rebuild_interval);
+  return h;
+}
+
+void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s) {
+  const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
+  const std::size_t kk = static_cast<std::size_t>(k());
+  const h5::Dataset list_rows = file().dataset(layout::neighbor_rows);
+  const h5::Dataset list_counts = file().dataset(layout::neighbor_counts);
+  s.tile = t;
+  s.level_end.assign(1, rows);
+  s.lists.resize(static_cast<std::size_t>(h));
+  s.degenerate.assign(static_cast<std::size_t>(h), 0);
+  s.rows.resize(rows);
+  std::iota(s.rows.begin(), s.rows.end(), begin);
+  s.sorted_rows.clear();
+  s.sorted_local.clear();
+  const auto local_of = [&](std::uint64_t g) -> std::optional<Index> {
+    if (g >= begin && g < begin + rows) return static_cast<Index>(g - begin);
+    const auto it = std::lower_bound(s.sorted_rows.begin(), s.sorted_rows.end(), g);
+    if (it == s.sorted_rows.end() || *it != g) return std::nullopt;
+    return s.sorted_local[static_cast<std::size_t>(it - s.sorted_rows.begin())];
+  };
+  std::vector<std::uint64_t> level_rows, fresh, merged_rows;
+  std::vector<Index> merged_local;
+  for (std::size_t l = 0; l < static_cast<std::size_t>(h); ++l) {
+    const std::size_t first = l == 0 ? 0 : s.level_end[l - 1], count = s.level_end[l] - first;
+    s.global.resize(count * kk);
+    s.counts.resize(count);
+    if (l == 0) {
+      list_rows.read_rows(begin, rows, s.global.data());
+      list_counts.read_rows(begin, rows, s.counts.data());
+    } else if (count > 0) {
+      // The level's rows ascend (each ring is added in row order).
+      level_rows.assign(s.rows.begin() + static_cast<std::ptrdiff_t>(first), s.rows.end());
+      list_rows.read_selected(level_rows, s.global.data());
+      list_counts.read_selected(level_rows, s.counts.data());
+    }
+    // The next ring: neighbours not yet local, in row order.
+    fresh.clear();
+    for (std::size_t r = 0; r < count; ++r)
+      for (std::size_t j = 0; j < s.counts[r]; ++j)
+        if (!local_of(s.global[r * kk + j])) fresh.push_back(s.global[r * kk + j]);
+    std::sort(fresh.begin(), fresh.end());
+    fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
+    if (!fresh.empty()) {
+      // Merge the ring into the sorted rows (local indices continue after the last level).
+      merged_rows.clear();
+      merged_local.clear();
+      std::size_t a = 0;
+      for (std::size_t f = 0; f < fresh.size(); ++f) {
+        for (; a < s.sorted_rows.size() && s.sorted_rows[a] < fresh[f]; ++a) {
+          merged_rows.push_back(s.sorted_rows[a]);
+          merged_local.push_back(s.sorted_local[a]);
+        }
+        merged_rows.push_back(fresh[f]);
+        merged_local.push_back(static_cast<Index>(s.rows.size() + f));
+      }
+      merged_rows.insert(merged_rows.end(), s.sorted_rows.begin() + static_cast<std::ptrdiff_t>(a), s.sorted_rows.end());
+      merged_local.insert(merged_local.end(), s.sorted_local.begin() + static_cast<std::ptrdiff_t>(a), s.sorted_local.end());
+      s.sorted_rows.swap(merged_rows);
+      s.sorted_local.swap(merged_local);
+      s.rows.insert(s.rows.end(), fresh.begin(), fresh.end());
+    }
+    s.level_end.push_back(s.rows.size());
+    // The level's lists in local indices (every neighbour is local now).
+    Neighborhoods& nb = s.lists[l];
+    nb.stride = k();
+    nb.eps = eps_;
+    nb.counts.assign(s.counts.begin(), s.counts.begin() + static_cast<std::ptrdiff_t>(count));
+    nb.indices.assign(count * kk, 0);
+    for (std::size_t r = 0; r < count; ++r)
+      for (std::size_t j = 0; j < s.counts[r]; ++j) nb.indices[r * kk + j] = *local_of(s.global[r * kk + j]);
+  }
+  // Positions of step n: the tile's rows, then the rings read in ascending row order.
+  s.cur.resize(s.rows.size());
+  s.next.resize(s.level_end[static_cast<std::size_t>(h) - 1]);
+  source.read_rows(begin, rows, s.cur.data()->data());
+  if (!s.sorted_rows.empty()) {
+    s.scratch.resize(s.sorted_rows.size());
+    source.read_selected(s.sorted_rows, s.scratch.data()->data());
+    for (std::size_t i = 0; i < s.sorted_rows.size(); ++i) s.cur[s.sorted_local[i]] = s.scratch[i];
+  }
+  if (s.ids.size() < s.next.size()) {
+    s.ids.resize(s.next.size());
+    std::iota(s.ids.begin(), s.ids.end(), Index{0});
+  }
+  rows_read_ += s.rows.size();
+  list_rows_read_ += s.next.size();
 }
 
 std::size_t Run::pipeline_slots(std::uint64_t fixed) {
@@ -840,12 +1067,12 @@ bool Run::run_steps(OutOfCoreReport& report) {
       file().dataset(layout::run_step_log).read_rows(static_cast<std::uint64_t>(start - 1), 1, entry);
       lambda = entry[0];
     } else {
-      load_sample_positions(file().dataset(source_of_step(built_at)));
+      load_sample_positions(file().dataset(built_at == 0 ? std::string(layout::positions) : current_source()));
       lambda = sample_lambda();
       gather_positions_ = {};
     }
   }
-  if (every_step) load_sample_positions(file().dataset(source_of_step(start)));
+  if (every_step) load_sample_positions(file().dataset(current_source()));
   cache_.assign(tiles_.size(), {});
   local_written_.assign(tiles_.size(), 0);
   halo_rows_.assign(tiles_.size(), {});
@@ -883,7 +1110,15 @@ bool Run::run_steps(OutOfCoreReport& report) {
     }
     return total;
   };
-  for (int step = start; step < params_.steps; ++step) {
+  // Temporal blocks (OutOfCoreOptions::temporal_block): h steps per load of a tile and its
+  // h-ring closure, in a pipeline of their own.
+  std::vector<BlockSlot> block_slots(options_.temporal_block > 1 ? slot_count : 0);
+  const auto block_bytes = [&] {
+    std::uint64_t total = 0;
+    for (const BlockSlot& b : block_slots) total += b.bytes();
+    return total;
+  };
+  for (int step = start; step < params_.steps;) {
     auto t0 = Clock::now();
     if (rebuild_due(step) && state_[kNeighborsStep] != step) {
       rebuild_neighbors(step);
@@ -904,15 +1139,31 @@ bool Run::run_steps(OutOfCoreReport& report) {
         return true;
       }
     }
-    const h5::Dataset source = file().dataset(source_of_step(step));
-    h5::Dataset target = file().dataset(positions_buffer((step + 1) % 2));
+    const h5::Dataset source = file().dataset(current_source());
+    h5::Dataset target = file().dataset(positions_buffer(static_cast<int>(target_code() - 1)));
+    const int h = block_length(step);
+    std::vector<std::size_t> block_degenerate(static_cast<std::size_t>(h), 0);
     std::size_t degenerate = 0;
     PipelineStages stages;
+    if (h > 1) {
+      stages.read = [&](std::size_t item, std::size_t slot) {
+        read_block(work[item], h, source, block_slots[slot]);
+        largest_local_ = std::max<std::uint64_t>(largest_local_, block_slots[slot].cur.size());
+        account(block_bytes() + bytes(identity));
+      };
+      stages.compute = [&](std::size_t slot) { block_slots[slot].compute(params_.flow, lambda); };
+      stages.write = [&](std::size_t, std::size_t slot) {
+        BlockSlot& b = block_slots[slot];
+        target.write_rows(tiles_.offsets[b.tile], tiles_.rows(b.tile), b.cur.data()->data(), h5::Transfer::Collective);
+        for (int j = 0; j < h; ++j) block_degenerate[static_cast<std::size_t>(j)] += b.degenerate[static_cast<std::size_t>(j)];
+      };
+    } else {
     stages.read = [&](std::size_t item, std::size_t slot) {
       Slot& s = slots[slot];
       s.tile = work[item];
       s.nb = neighbors_of(s.tile);
       read_tile_positions(s.tile, *s.nb, source, s.local);
+      rows_read_ += s.local.size();
       s.next.resize(tiles_.rows(s.tile));
       largest_local_ = std::max<std::uint64_t>(largest_local_, s.local.size());
       account(slots_bytes());
@@ -934,9 +1185,11 @@ bool Run::run_steps(OutOfCoreReport& report) {
       }
       s.nb.reset();  // lists that are not cached are freed with their tile
     };
+    }
     run_pipeline(work.size(), slot_count, stages);
     // Collective writes: as many per rank as the rank with the most tiles.
     for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
+    if (h == 1) block_degenerate[0] = degenerate;
     if (every_step && ranks_->size() > 1) {
       // Each rank updated the sample's positions in its own tiles: exchange them.
       const auto first = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), my_first_row()) - gather_rows_.begin();
@@ -945,18 +1198,25 @@ bool Run::run_steps(OutOfCoreReport& report) {
       std::fill(gather_positions_.begin() + end, gather_positions_.end(), Vec3::Zero());
       ranks_->merge(std::span<double>(gather_positions_.data()->data(), 3 * gather_positions_.size()));
     }
-    degenerate = static_cast<std::size_t>(ranks_->sum(degenerate));
-    const double entry[2] = {lambda, static_cast<double>(degenerate)};
-    if (ranks_->rank() == 0) log.write_rows(static_cast<std::uint64_t>(step), 1, entry);
-    state_[kCompletedSteps] = step + 1;
+    for (int j = 0; j < h; ++j) {
+      degenerate = static_cast<std::size_t>(ranks_->sum(block_degenerate[static_cast<std::size_t>(j)]));
+      const double entry[2] = {lambda, static_cast<double>(degenerate)};
+      if (ranks_->rank() == 0) log.write_rows(static_cast<std::uint64_t>(step + j), 1, entry);
+    }
+    step += h;
+    state_[kCompletedSteps] = step;
+    state_[kStepBuffer] = target_code();
     commit_state();
-    report.steps = step + 1;
+    report.steps = step;
+    report.position_rows_read = rows_read_;
+    report.list_rows_read = list_rows_read_;
     report.lambda = lambda;
     report.eps = eps_;
     report.degenerate = degenerate;
     report.seconds_steps += seconds_since(t0);
-    progress("step", static_cast<std::uint64_t>(step + 1), static_cast<std::uint64_t>(params_.steps));
-    if (options_.stop_after_steps >= 0 && ++committed_here >= options_.stop_after_steps && step + 1 < params_.steps)
+    progress("step", static_cast<std::uint64_t>(step), static_cast<std::uint64_t>(params_.steps));
+    committed_here += h;
+    if (options_.stop_after_steps >= 0 && committed_here >= options_.stop_after_steps && step < params_.steps)
       return false;
   }
   final_steps_ = params_.steps;
@@ -966,7 +1226,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
 // ---- attributes and the end ---------------------------------------------------------------------
 
 std::size_t Run::write_attributes(double lambda) {
-  const std::string source_path = source_of_step(final_steps_);
+  const std::string source_path = current_source();
   const h5::Dataset source = file().dataset(source_path);
   // compute_attributes orients normals away from the centre of the bounding box.
   // Each rank bounds its own rows; the box of the cloud is the maximum over the ranks of
@@ -1053,7 +1313,7 @@ void Run::finish(std::size_t attributes_degenerate, double lambda) {
     file().set_attribute(layout::run_attributes, "degenerate", static_cast<std::int64_t>(attributes_degenerate));
     file().set_attribute(layout::run_attributes, "lambda", lambda);
   }
-  file().set_attribute(layout::run, "result_positions", source_of_step(final_steps_));
+  file().set_attribute(layout::run, "result_positions", current_source());
   file().set_attribute(layout::run, "eps", eps_);
   state_[kFinished] = 1;
   commit_state();
@@ -1066,6 +1326,10 @@ void Run::finish(std::size_t attributes_degenerate, double lambda) {
 OutOfCoreReport Run::run() {
   params_.validate();
   require(options_.memory_budget > 0, "the memory budget must be positive");
+  require(options_.temporal_block >= 1, "the temporal block must be at least 1 step");
+  require(options_.temporal_block == 1 || !(auto_lambda_on() && params_.lambda_every_step),
+          "temporal blocks (--temporal-block) need a fixed lambda or one measured once (--lambda-schedule "
+          "once): the automatic lambda of every step is measured on the whole cloud between steps");
   io::require_distinct(input_path_, output_);
   io::require_distinct(input_path_, partial_name(output_));
   OutOfCoreReport report;
@@ -1075,7 +1339,15 @@ OutOfCoreReport Run::run() {
   report.tiles = tiles_.size();
   auto t0 = Clock::now();
   balance(false);  // by points: the halos are not known yet
-  if (state_[kNeighborsDone] == 0) build_neighbors(0);
+  if (state_[kNeighborsDone] == 0) {
+    if (!options_.neighbor_reference.empty()) {
+      // The first lists from the reference's positions, with halos around its tiles' bounds.
+      load_reference();
+      neighbor_source_ = kReferencePositions;
+      measure_bounds();
+    }
+    build_neighbors(0);
+  }
   else file().dataset(layout::run_eps).read_rows(0, 1, &eps_);
   report.eps = eps_;
   balance(true);

@@ -76,6 +76,14 @@ int run_smooth_out_of_core(const Args& args) {
                  ooc.memory_budget = parse_size(v, "--memory-budget");
                  budget_given = true;
                });
+  parser.value("neighbors-from", "REF",
+               "Build the first neighbourhoods from this cloud (point file or container; same "
+               "points, same order) instead of the input.",
+               [&](std::string_view v) { ooc.neighbor_reference = std::string(v); });
+  parser.value("temporal-block", "H",
+               "Steps per load of a tile, which then comes with H rings of neighbours: less I/O "
+               "per step, same result. Needs a fixed --lambda or --lambda-schedule once. Default 1.",
+               [&](std::string_view v) { ooc.temporal_block = parse_int(v, "--temporal-block"); });
   parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters).",
               [&] { ooc.resume = true; });
   add_output_options(parser, output, true);
@@ -173,7 +181,13 @@ int run_smooth_out_of_core(const Args& args) {
     j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
     j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));
     j.add("neighbors_cached", report.neighbors_cached).add("tiles_in_flight", report.tiles_in_flight);
-    j.add("rebuilds", report.rebuilds);
+    j.add("rebuilds", report.rebuilds).add("temporal_block", ooc.temporal_block);
+    // Bytes the steps read: positions (24 per row) and neighbour lists (4 k + 2 per row).
+    const std::size_t list_row_bytes = 4 * static_cast<std::size_t>(params.neighbors.k) + 2;
+    j.add("bytes_read_per_step",
+          steps_here > 0 ? static_cast<double>(report.position_rows_read * 24 + report.list_rows_read * list_row_bytes) /
+                               steps_here
+                         : 0.0);
     j.add("seconds", seconds).add("point_steps_per_second", rate).add("degenerate_points", report.degenerate);
     std::cout << j.str() << std::endl;
   }

@@ -41,6 +41,16 @@ struct OutOfCoreOptions {
   /// written. Fewer when they do not fit in the budget next to what the run keeps; 1: read,
   /// compute and write one tile after the other. Results do not depend on it.
   int tiles_in_flight = 3;
+  /// Temporal blocking: steps done per load of a tile, which comes with the h-ring closure of
+  /// its neighbour lists (every point its step-n+h position depends on), to cut the I/O of
+  /// halos and lists. Needs a lambda that stays fixed between steps (a fixed lambda, or one
+  /// measured once); blocks end at rebuilds. 1: one step per load. Results do not depend on it.
+  int temporal_block = 1;
+  /// Build the first neighbourhoods from this cloud instead of the input (SmoothOptions::
+  /// neighbor_reference): a point file or container with the same points in the input's
+  /// original order. Its positions are copied into the run in row order, in passes over
+  /// blocks of an eighth of the budget (each reads the reference again). Empty: the input.
+  std::filesystem::path neighbor_reference;
   /// Stop (as if killed) after this many steps committed by this call; < 0: never. For tests.
   int stop_after_steps = -1;
   /// Called with a phase name ("eps", "neighbors", "step", "attributes") and progress (of this
@@ -74,6 +84,10 @@ struct OutOfCoreReport {
   /// Halo rows a step reads, summed over the tiles (the I/O of a step beyond the tiles
   /// themselves); 0 when the run file does not record them.
   std::uint64_t halo_points = 0;
+  /// Rows of positions (24 bytes each) and of neighbour lists (4 k + 2 bytes each) the steps
+  /// of this call read: their I/O volume beyond the rows they write.
+  std::uint64_t position_rows_read = 0;
+  std::uint64_t list_rows_read = 0;
   /// Neighbourhood rebuilds done by this call (SmoothParams::rebuild_interval).
   int rebuilds = 0;
   double seconds_neighbors = 0.0;
