@@ -6,8 +6,9 @@
 #              import on 1-4 ranks; the Slurm scripts (shellcheck, a run against stand-ins)
 #   asan       the whole suite again under AddressSanitizer + UndefinedBehaviorSanitizer (gcc
 #              -O1), but for the repeat of the core tests against the OpenMP back end
-#   tsan       ThreadSanitizer over the parallel kernels: the core with the std::thread back
-#              end (TBB's and libgomp's own internals are not instrumented in Debian's builds)
+#   tsan       ThreadSanitizer over the parallel kernels and the tile pipeline: the core with
+#              the std::thread back end (TBB's and libgomp's own internals are not instrumented
+#              in Debian's builds)
 #   fuzz       libFuzzer (clang): each reader's fuzzer for POINTFAIR_FUZZ_SECONDS (default 20)
 #              over the committed seeds, and every committed regression input once
 # POINTFAIR_HARDENING=0 skips asan, tsan and fuzz; POINTFAIR_MPI_STAGE=0 skips mpi.
@@ -60,9 +61,9 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
   cmake -S . -B "$tsan" -G Ninja -DCMAKE_BUILD_TYPE=Release \
     -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DCMAKE_C_FLAGS_RELEASE="-O1 -DNDEBUG" \
     -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_PARALLEL=Threads -DPOINTFAIR_SANITIZE=thread >/dev/null
-  cmake --build "$tsan" -j"$jobs" --target pointfair_core_tests
+  cmake --build "$tsan" -j"$jobs" --target pointfair_core_tests pointfair_pipeline_tests
   TSAN_OPTIONS=halt_on_error=1 ctest --test-dir "$tsan" --output-on-failure -j"$jobs" --timeout 600 \
-    -R '^(Parallel|Neighbo[a-z]*|SpatialOrder|EulerStep)\.'
+    -R '^(Parallel|Neighbo[a-z]*|SpatialOrder|EulerStep|Pipeline)\.'
 
   stage fuzz
   probe=$(mktemp -d)
