@@ -35,6 +35,15 @@ inline double next_up(double x) {
   return std::bit_cast<double>(std::bit_cast<std::uint64_t>(x) + 1);
 }
 
+// The bound reported to nanoflann for a worst squared distance x: nanoflann offers a point only
+// if its distance is strictly below it (hence the next larger double, so that a point tied
+// with the worst is still offered), and prunes a node when its incrementally summed distance
+// bound exceeds it. That sum can round a few ulps above the true bound of the node, which would
+// lose points tied with the worst in a node beside it (stacks of duplicates spread over several
+// leaves); the relative 1e-12 covers that rounding. Only a few more nodes are visited, and
+// addPoint still decides each point exactly.
+inline double search_bound(double x) { return next_up(x * (1.0 + 1e-12)); }
+
 class CanonicalKnn {
  public:
   using DistanceType = double;
@@ -66,12 +75,10 @@ class CanonicalKnn {
     dists_[i] = dist;
     indices_[i] = index;
     if (!full()) ++count_;
-    if (full()) worst_ = next_up(dists_[count_ - 1]);
+    if (full()) worst_ = search_bound(dists_[count_ - 1]);
     return true;
   }
 
-  // nanoflann offers a point only if its distance is strictly below worstDist(); report the
-  // next larger double so that a point tied with the current worst is still offered.
   double worstDist() const { return worst_; }
 
  private:
@@ -83,7 +90,7 @@ class CanonicalKnn {
   Index* indices_;
   double* dists_;
   int count_ = 0;
-  double worst_ = next_up(max_distance2_);
+  double worst_ = search_bound(max_distance2_);
 };
 
 }  // namespace

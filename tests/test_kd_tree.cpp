@@ -68,6 +68,18 @@ TEST(KdTree, NearestMatchesBruteForceWithDuplicates) {
   expect_matches_oracle(tree, points, points[7], 30, kInf);
 }
 
+TEST(KdTree, StackOfDuplicatesTiedWithTheWorstSpreadOverLeaves) {
+  // 81 coincident points (more than a leaf holds) at the k-th distance of nearby queries: the
+  // tree's summed node bounds may round above the tied distance, which must not prune the
+  // leaves holding the stack's smaller indices.
+  std::vector<Vec3> points = test::random_box(1500, 0.0, 1.0, 8);
+  for (std::size_t i = 0; i < 300; i += 3) points.push_back(points[i]);
+  for (int i = 0; i < 80; ++i) points.push_back(points[17]);
+  const KdTree tree(points);
+  for (const int k : {17, 65})
+    for (std::size_t q = 0; q < points.size(); ++q) expect_matches_oracle(tree, points, points[q], k, kInf);
+}
+
 TEST(KdTree, TiesOnIntegerGridBrokenBySmallerIndex) {
   // Shells around an interior grid point: 6 at distance 1, 12 at sqrt 2, 8 at sqrt 3; every k
   // that cuts through a shell must keep the smallest indices of that shell.
