@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "pointfair/kd_tree.hpp"
+#include "pointfair/params_error.hpp"
 #include "pointfair/parallel.hpp"
 
 namespace pointfair {
@@ -80,11 +80,10 @@ Neighborhoods build_reordered_neighborhoods(std::span<const Vec3> points, const 
                                             std::span<const Index> order,
                                             std::span<const Index> row_of) {
   params.validate();
-  Neighborhoods nb;
-  {
-    const KdTree tree(points);
-    nb = build_neighborhoods(tree, order, params.k, resolve_eps(points, tree, params));
-  }
+  require(order.size() == points.size() && row_of.size() == points.size(),
+          "build_reordered_neighborhoods: order and row_of must hold one entry per point");
+  // Row s is point order[s]: its list goes to row row_of[order[s]] = s.
+  Neighborhoods nb = build_neighborhoods(points, params, row_of);
   const auto stride = static_cast<std::size_t>(nb.stride);
   parallel_for(nb.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t s = begin; s < end; ++s) {

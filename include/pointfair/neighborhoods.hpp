@@ -47,13 +47,24 @@ struct Neighborhoods {
 /// The radius bound params ask for: params.eps, or the automatic one measured on `points`.
 double resolve_eps(std::span<const Vec3> points, const KdTree& tree, const NeighborParams& params);
 
-/// Neighbourhoods of every point of `points` among `points`. Parallel.
+/// Neighbourhoods of every point of `points` among `points`. Parallel; searched through a
+/// cell grid (knn_grid.hpp), with the same lists as one k-d tree query per point.
 Neighborhoods build_neighborhoods(std::span<const Vec3> points, const NeighborParams& params);
+
+/// The same lists with the rows permuted: point p's list is row row_of[p] (`row_of` a
+/// permutation of 0..n-1). Indices in the lists still refer to `points`.
+Neighborhoods build_neighborhoods(std::span<const Vec3> points, const NeighborParams& params,
+                                  std::span<const Index> row_of);
 
 /// Neighbourhoods of the points `queries` (indices into `points`) among all of `points`, with
 /// a resolved radius `eps` (no automatic choice here: tiles must share one global value).
-/// Row r of the result belongs to queries[r]; indices refer to `points`.
+/// Row r of the result belongs to queries[r]; indices refer to `points`. Searched through a
+/// cell grid over tree.points(); the tree answers the queries the grid cannot settle.
 Neighborhoods build_neighborhoods(const KdTree& tree, std::span<const Index> queries, int k,
                                   double eps);
+
+/// The same rows through one k-d tree query per row and no grid: the reference path.
+Neighborhoods build_neighborhoods_kd_tree(const KdTree& tree, std::span<const Index> queries,
+                                          int k, double eps);
 
 }  // namespace pointfair

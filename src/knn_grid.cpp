@@ -1,0 +1,764 @@
+#include "pointfair/knn_grid.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+#include <utility>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
+#include "pointfair/kd_tree.hpp"
+#include "pointfair/neighborhoods.hpp"
+#include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
+
+namespace pointfair {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr std::int64_t kAxisCells = std::int64_t{1} << 21;
+constexpr int kProbes = 16;
+// Blocks of (2R+1)^3 cells are tried for R = 1 .. kMaxRing before the k-d tree.
+constexpr std::int64_t kMaxRing = 3;
+// Cell size over the median distance to the k-th nearest point.
+constexpr double kCellFactor = 1.0;
+// With a finite eps below that, the cell is eps enlarged by this factor: a query anywhere in
+// its cell then has its whole eps-ball inside the 3 x 3 x 3 block, despite the margins below.
+constexpr double kEpsCellFactor = 1.0 + 1e-4;
+// Margins of the exactness test, far above the rounding they cover: the cell coordinates
+// (relative error ~1e-16 of at most 2^21 cells) and a computed squared distance (~1e-15).
+constexpr double kGapMargin = 1e-6;  // cell units
+constexpr double kRelativeMargin = 1e-9;
+// Queries left to the fallback that a scan of every point answers (else a k-d tree is built).
+constexpr std::size_t kScanLimit = 32;
+
+// Squared distance summed in the k-d tree's order (x, y, z), so ties compare the same way.
+inline double distance2(double qx, double qy, double qz, double px, double py, double pz) {
+  const double dx = qx - px, dy = qy - py, dz = qz - pz;
+  return dx * dx + dy * dy + dz * dz;
+}
+
+// How many of d2[0..m) are <= limit. SSE2 where available (the baseline of x86-64).
+std::size_t count_within(const double* d2, std::size_t m, double limit) {
+  std::size_t j = 0;
+  std::size_t count = 0;
+#if defined(__SSE2__)
+  const __m128d bound = _mm_set1_pd(limit);
+  __m128i lanes = _mm_setzero_si128();
+  for (; j + 2 <= m; j += 2)
+    lanes = _mm_sub_epi64(lanes, _mm_castpd_si128(_mm_cmple_pd(_mm_loadu_pd(d2 + j), bound)));
+  std::int64_t sums[2];
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(sums), lanes);
+  count = static_cast<std::size_t>(sums[0] + sums[1]);
+#endif
+  for (; j < m; ++j) count += d2[j] <= limit ? 1 : 0;
+  return count;
+}
+
+// The `cap` smallest (squared distance, index) pairs offered with distance <= bound, sorted by
+// distance, ties by the smaller index: the k-d tree's canonical result set.
+class Nearest {
+ public:
+  Nearest(int cap, double bound, double* d2, Index* ids)
+      : cap_(cap), bound_(bound), worst_(bound), d2_(d2), ids_(ids) {}
+
+  void reset() {
+    count_ = 0;
+    worst_ = bound_;
+  }
+  int count() const { return count_; }
+  bool full() const { return count_ == cap_; }
+  double last() const { return d2_[count_ - 1]; }
+  const Index* ids() const { return ids_; }
+
+  // Offers the pairs with d2[j] <= limit (<= the bound): a vectorised scan that finds the few
+  // of them without a branch per candidate.
+  void offer_within(const double* d2, const Index* ids, std::size_t m, double limit) {
+    std::size_t j = 0;
+#if defined(__SSE2__)
+    const __m128d bound = _mm_set1_pd(limit);
+    for (; j + 2 <= m; j += 2) {
+      const int mask = _mm_movemask_pd(_mm_cmple_pd(_mm_loadu_pd(d2 + j), bound));
+      if (mask == 0) continue;
+      if ((mask & 1) != 0 && !(d2[j] > worst_)) insert(d2[j], ids[j]);
+      if ((mask & 2) != 0 && !(d2[j + 1] > worst_)) insert(d2[j + 1], ids[j + 1]);
+    }
+#endif
+    for (; j < m; ++j)
+      if (d2[j] <= limit && !(d2[j] > worst_)) insert(d2[j], ids[j]);
+  }
+
+  void offer(const double* d2, const Index* ids, std::size_t m) {
+    for (std::size_t j = 0; j < m; ++j) {
+      if (d2[j] > worst_) continue;
+      insert(d2[j], ids[j]);
+    }
+  }
+
+ private:
+  void insert(double d, Index id) {
+    int p = 0;
+    if (count_ == cap_) {
+      if (d == worst_ && id > ids_[cap_ - 1]) return;
+      p = cap_ - 1;
+    } else {
+      p = count_++;
+    }
+    while (p > 0 && (d2_[p - 1] > d || (d2_[p - 1] == d && ids_[p - 1] > id))) {
+      d2_[p] = d2_[p - 1];
+      ids_[p] = ids_[p - 1];
+      --p;
+    }
+    d2_[p] = d;
+    ids_[p] = id;
+    if (count_ == cap_) worst_ = d2_[cap_ - 1];
+  }
+
+ private:
+  int cap_;
+  double bound_;
+  double worst_;
+  double* d2_;
+  Index* ids_;
+  int count_ = 0;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Building the grid.
+
+struct Box {
+  double lo[3] = {kInf, kInf, kInf};
+  double hi[3] = {-kInf, -kInf, -kInf};
+};
+
+Box bounding_box(std::span<const Vec3> points) {
+  Box b;
+  for (const Vec3& p : points) {
+    for (int a = 0; a < 3; ++a) {
+      b.lo[a] = std::min(b.lo[a], p[a]);
+      b.hi[a] = std::max(b.hi[a], p[a]);
+    }
+  }
+  return b;
+}
+
+// Per axis, from an evenly strided sample of at most 4096 points: the median and the spread
+// between the 1% and 99% quantiles (robust to a few far outliers).
+struct RobustSpread {
+  double median[3] = {0, 0, 0};
+  double extent = 0;  // largest spread over the axes
+};
+
+RobustSpread robust_spread(std::span<const Vec3> points) {
+  const std::size_t n = points.size();
+  const std::size_t stride = std::max<std::size_t>(1, n / 4096);
+  std::vector<double> v((n + stride - 1) / stride);
+  RobustSpread r;
+  for (int a = 0; a < 3; ++a) {
+    for (std::size_t s = 0; s < v.size(); ++s) v[s] = points[s * stride][a];
+    const auto at = [&](std::size_t i) {
+      std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(i), v.end());
+      return v[i];
+    };
+    const std::size_t last = v.size() - 1;
+    r.median[a] = at(v.size() / 2);
+    r.extent = std::max(r.extent, at(last - last / 100) - at(last / 100));
+  }
+  return r;
+}
+
+// Median distance to the (want)-th nearest point (the point itself included) of kProbes evenly
+// strided probe points, measured exactly by one pass over every point; the largest of them if
+// the median is 0 (duplicates), 0 if every probe sits on more than `want` duplicates.
+double probe_spacing(std::span<const Vec3> points, std::size_t want) {
+  const std::size_t n = points.size();
+  double px[kProbes], py[kProbes], pz[kProbes];
+  for (std::size_t p = 0; p < kProbes; ++p) {
+    const Vec3& q = points[(2 * p + 1) * n / (2 * kProbes)];
+    px[p] = q.x();
+    py[p] = q.y();
+    pz[p] = q.z();
+  }
+  // Each chunk keeps, per probe, a max-heap of the `want` smallest squared distances it saw.
+  const std::size_t chunks = std::min<std::size_t>(64, (n + 16383) / 16384);
+  std::vector<double> heaps(chunks * kProbes * want, kInf);
+  parallel_for(chunks, [&](std::size_t cb, std::size_t ce) {
+    for (std::size_t c = cb; c < ce; ++c) {
+      double* heap = heaps.data() + c * kProbes * want;
+      double top[kProbes];
+      std::fill(top, top + kProbes, kInf);
+      const std::size_t end = (c + 1) * n / chunks;
+      for (std::size_t j = c * n / chunks; j < end; ++j) {
+        const double x = points[j].x(), y = points[j].y(), z = points[j].z();
+        double d[kProbes];
+        bool any = false;
+        for (std::size_t p = 0; p < kProbes; ++p) {
+          d[p] = distance2(px[p], py[p], pz[p], x, y, z);
+          any |= d[p] < top[p];
+        }
+        if (!any) continue;
+        for (std::size_t p = 0; p < kProbes; ++p) {
+          if (!(d[p] < top[p])) continue;
+          double* h = heap + p * want;
+          std::pop_heap(h, h + want);
+          h[want - 1] = d[p];
+          std::push_heap(h, h + want);
+          top[p] = h[0];
+        }
+      }
+    }
+  }, 1);
+  std::vector<double> spacing(kProbes);
+  std::vector<double> all(chunks * want);
+  for (std::size_t p = 0; p < kProbes; ++p) {
+    for (std::size_t c = 0; c < chunks; ++c)
+      std::copy_n(heaps.data() + (c * kProbes + p) * want, want, all.data() + c * want);
+    std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(want - 1), all.end());
+    spacing[p] = std::sqrt(all[want - 1]);
+  }
+  std::sort(spacing.begin(), spacing.end());
+  const double median = spacing[kProbes / 2];
+  return median > 0.0 ? median : spacing.back();
+}
+
+// The cell edge length for searches of `want` points within eps; +infinity for one cell.
+double choose_cell(std::span<const Vec3> points, std::size_t want, double eps, const Box& box,
+                   const RobustSpread& spread) {
+  const std::size_t n = points.size();
+  // Small clouds: every query against every point is cheap enough.
+  if (n <= 2 * want + 64) return kInf;
+  double cell = kCellFactor * probe_spacing(points, want);
+  if (!(cell > 0.0)) {
+    // The probes all sit on stacks of duplicates: a cell per point on average.
+    double extent = 0.0;
+    for (int a = 0; a < 3; ++a) extent = std::max(extent, box.hi[a] - box.lo[a]);
+    cell = extent / std::cbrt(static_cast<double>(n));
+  }
+  if (std::isfinite(eps)) cell = std::min(cell, eps * kEpsCellFactor);
+  // Keep the bulk of the cloud inside the 2^21 cells of the window.
+  cell = std::max(cell, spread.extent * 0x1p-19);
+  if (!(cell > 0.0) || !std::isfinite(cell)) return kInf;
+  return cell;
+}
+
+std::int64_t cell_coordinate(const CellGrid& g, double v, int a) {
+  const double u = (v - g.origin[a]) * g.inverse_cell;
+  if (!(u > 0.0)) return 0;
+  const double top = static_cast<double>(g.dims[a] - 1);
+  return u >= top ? g.dims[a] - 1 : static_cast<std::int64_t>(u);
+}
+
+// Stable LSD radix sort of `keys` (values < 2^bits) carrying `values` along.
+void radix_sort(std::vector<std::uint64_t>& keys, std::vector<Index>& values, int bits) {
+  constexpr int kDigit = 11;
+  constexpr std::size_t kBuckets = std::size_t{1} << kDigit;
+  const int passes = (bits + kDigit - 1) / kDigit;
+  if (passes == 0) return;
+  const std::size_t n = keys.size();
+  std::vector<std::size_t> counts(static_cast<std::size_t>(passes) * kBuckets, 0);
+  for (const std::uint64_t key : keys)
+    for (int p = 0; p < passes; ++p)
+      ++counts[static_cast<std::size_t>(p) * kBuckets + ((key >> (p * kDigit)) & (kBuckets - 1))];
+  std::vector<std::uint64_t> keys2(n);
+  std::vector<Index> values2(n);
+  for (int p = 0; p < passes; ++p) {
+    std::size_t* count = counts.data() + static_cast<std::size_t>(p) * kBuckets;
+    if (std::find(count, count + kBuckets, n) != count + kBuckets) continue;  // one digit only
+    std::size_t sum = 0;
+    for (std::size_t b = 0; b < kBuckets; ++b) sum += std::exchange(count[b], sum);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t to = count[(keys[i] >> (p * kDigit)) & (kBuckets - 1)]++;
+      keys2[to] = keys[i];
+      values2[to] = values[i];
+    }
+    keys.swap(keys2);
+    values.swap(values2);
+  }
+}
+
+}  // namespace
+
+CellGrid build_cell_grid(std::span<const Vec3> points, int k, double eps) {
+  require(k >= 1 && k <= 1024, "k must be in 1..1024, got " + std::to_string(k));
+  require(eps > 0.0, "eps must be positive");
+  require(points.size() < std::numeric_limits<Index>::max(),
+          "an in-core cloud holds fewer than 2^32-1 points; use tiles for more");
+  require_finite(points, "neighbourhoods");
+  CellGrid g;
+  g.points = points;
+  const std::size_t n = points.size();
+  g.starts.assign(1, 0);
+  if (n == 0) return g;
+
+  const Box box = bounding_box(points);
+  const RobustSpread spread = robust_spread(points);
+  g.cell = choose_cell(points, static_cast<std::size_t>(k) + 1, eps, box, spread);
+  for (int a = 0; a < 3; ++a) g.origin[a] = box.lo[a];
+  if (std::isfinite(g.cell)) {
+    g.inverse_cell = 1.0 / g.cell;
+    const double half = static_cast<double>(kAxisCells / 2) * g.cell;
+    for (int a = 0; a < 3; ++a) {
+      g.origin[a] = std::max(box.lo[a], spread.median[a] - half);
+      const double span = (box.hi[a] - g.origin[a]) * g.inverse_cell;
+      g.dims[a] = span >= static_cast<double>(kAxisCells - 1) ? kAxisCells
+                                                              : static_cast<std::int64_t>(span) + 1;
+    }
+  }
+
+  // Cell keys, then the points sorted by key (ties by index: the sort is stable).
+  std::vector<std::uint64_t> keys(n);
+  g.order.resize(n);
+  parallel_for(n, [&](std::size_t b, std::size_t e) {
+    for (std::size_t i = b; i < e; ++i) {
+      const Vec3& p = points[i];
+      const std::int64_t cx = cell_coordinate(g, p.x(), 0), cy = cell_coordinate(g, p.y(), 1),
+                         cz = cell_coordinate(g, p.z(), 2);
+      keys[i] = static_cast<std::uint64_t>((cz * g.dims[1] + cy) * g.dims[0] + cx);
+      g.order[i] = static_cast<Index>(i);
+    }
+  }, 16384);
+  const auto max_key = static_cast<std::uint64_t>(g.dims[0] * g.dims[1] * g.dims[2] - 1);
+  radix_sort(keys, g.order, static_cast<int>(std::bit_width(max_key)));
+
+  g.x.resize(n);
+  g.y.resize(n);
+  g.z.resize(n);
+  parallel_for(n, [&](std::size_t b, std::size_t e) {
+    for (std::size_t s = b; s < e; ++s) {
+      const Vec3& p = points[g.order[s]];
+      g.x[s] = p.x();
+      g.y[s] = p.y();
+      g.z[s] = p.z();
+    }
+  }, 16384);
+  g.starts.clear();
+  for (std::size_t s = 0; s < n; ++s) {
+    if (s > 0 && keys[s] == keys[s - 1]) continue;
+    g.keys.push_back(keys[s]);
+    g.starts.push_back(static_cast<Index>(s));
+  }
+  g.starts.push_back(static_cast<Index>(n));
+  return g;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Searching.
+
+namespace {
+
+// The queries of a search sorted by grid position, grouped by cell.
+struct Queries {
+  std::vector<Index> pos;    // sorted position of the query point
+  std::vector<Index> row;    // its output row
+  std::vector<Index> cell;   // query cells: grid cell index ...
+  std::vector<Index> first;  // ... and their entries first[c] .. first[c+1]-1
+};
+
+Queries every_point(const CellGrid& g, std::span<const Index> row_of) {
+  Queries q;
+  const std::size_t n = g.size();
+  q.pos.resize(n);
+  q.row.resize(n);
+  parallel_for(n, [&](std::size_t b, std::size_t e) {
+    for (std::size_t s = b; s < e; ++s) {
+      q.pos[s] = static_cast<Index>(s);
+      q.row[s] = row_of.empty() ? g.order[s] : row_of[g.order[s]];
+    }
+  }, 16384);
+  q.cell.resize(g.keys.size());
+  for (std::size_t c = 0; c < q.cell.size(); ++c) q.cell[c] = static_cast<Index>(c);
+  q.first = g.starts;
+  return q;
+}
+
+Queries some_points(const CellGrid& g, std::span<const Index> queries) {
+  const std::size_t n = g.size();
+  std::vector<Index> position_of(n);
+  parallel_for(n, [&](std::size_t b, std::size_t e) {
+    for (std::size_t s = b; s < e; ++s) position_of[g.order[s]] = static_cast<Index>(s);
+  }, 16384);
+  std::vector<std::uint64_t> keys(queries.size());
+  Queries q;
+  q.row.resize(queries.size());
+  for (std::size_t r = 0; r < queries.size(); ++r) {
+    require(queries[r] < n, "query " + std::to_string(queries[r]) + " is not a point index");
+    keys[r] = position_of[queries[r]];
+    q.row[r] = static_cast<Index>(r);
+  }
+  radix_sort(keys, q.row, n <= 1 ? 0 : static_cast<int>(std::bit_width(static_cast<std::uint64_t>(n - 1))));
+  q.pos.assign(keys.begin(), keys.end());
+  std::size_t c = 0;
+  for (std::size_t e = 0; e < q.pos.size(); ++e) {
+    while (g.starts[c + 1] <= q.pos[e]) ++c;
+    if (q.cell.empty() || q.cell.back() != c) {
+      q.cell.push_back(static_cast<Index>(c));
+      q.first.push_back(static_cast<Index>(e));
+    }
+  }
+  q.first.push_back(static_cast<Index>(q.pos.size()));
+  return q;
+}
+
+// Candidate points copied out of the grid: coordinates, indices, and their squared distances
+// to the current query.
+struct Candidates {
+  std::vector<double> x, y, z, d2;
+  std::vector<Index> id;
+  std::size_t m = 0;
+
+  void append(const CellGrid& g, std::size_t from, std::size_t to) {
+    const std::size_t add = to - from;
+    if (x.size() < m + add) {
+      const std::size_t size = std::max(2 * x.size(), m + add);
+      x.resize(size);
+      y.resize(size);
+      z.resize(size);
+      d2.resize(size);
+      id.resize(size);
+    }
+    std::copy(g.x.data() + from, g.x.data() + to, x.data() + m);
+    std::copy(g.y.data() + from, g.y.data() + to, y.data() + m);
+    std::copy(g.z.data() + from, g.z.data() + to, z.data() + m);
+    std::copy(g.order.data() + from, g.order.data() + to, id.data() + m);
+    m += add;
+  }
+
+  void distances(double qx, double qy, double qz) {
+    const double* px = x.data();
+    const double* py = y.data();
+    const double* pz = z.data();
+    double* d = d2.data();
+    for (std::size_t j = 0; j < m; ++j) d[j] = distance2(qx, qy, qz, px[j], py[j], pz[j]);
+  }
+};
+
+// One task's buffers.
+struct Scratch {
+  Candidates block;  // the points of the current cell's block
+  Candidates extra;  // one query's points beyond the block
+  std::vector<double> best_d2;
+  std::vector<Index> best_id;
+  std::vector<Index> pending, still;
+  double guess = 0.0;  // squared distance: the first selection threshold
+};
+
+// The rows (dy, dz) of the 3 x 3 x 3 block, the centre first.
+constexpr int kRows1[9][2] = {{0, 0}, {-1, 0}, {1, 0}, {0, -1}, {0, 1}, {-1, -1}, {1, -1}, {-1, 1}, {1, 1}};
+
+class Search {
+ public:
+  Search(const CellGrid& g, const Queries& q, int k, double eps, Neighborhoods& out,
+         std::span<double> last_d2, std::vector<std::uint8_t>& unresolved)
+      : g_(g), q_(q), k_(k), want_(k + 1), max_d2_(std::isinf(eps) ? eps : eps * eps),
+        budget_(std::max<std::size_t>(2048, 48 * static_cast<std::size_t>(k + 1))),
+        floor_d2_(std::isfinite(g.cell) ? 1e-6 * g.cell * g.cell : kInf),
+        out_(out), last_d2_(last_d2), unresolved_(unresolved) {}
+
+  // Query cells [cb, ce) of q. Each cell's queries are first searched in the 3 x 3 x 3 block
+  // around it; a query whose result could still miss a point beyond the block also searches
+  // the cells of its own reach; queries that find too few points try wider blocks.
+  void run(std::size_t cb, std::size_t ce) const {
+    Scratch s;
+    s.best_d2.resize(static_cast<std::size_t>(want_));
+    s.best_id.resize(static_cast<std::size_t>(want_));
+    s.guess = std::isfinite(g_.cell) ? g_.cell * g_.cell : kInf;
+    std::size_t cursor[9];
+    std::fill(cursor, cursor + 9, kNoCursor);
+    for (std::size_t qc = cb; qc < ce; ++qc) {
+      const std::size_t c = q_.cell[qc];
+      const std::uint64_t key = g_.keys[c];
+      const auto d0 = static_cast<std::uint64_t>(g_.dims[0]), d1 = static_cast<std::uint64_t>(g_.dims[1]);
+      const std::int64_t cell[3] = {static_cast<std::int64_t>(key % d0),
+                                    static_cast<std::int64_t>((key / d0) % d1),
+                                    static_cast<std::int64_t>(key / (d0 * d1))};
+      s.pending.clear();
+      for (Index e = q_.first[qc]; e < q_.first[qc + 1]; ++e) s.pending.push_back(e);
+      for (std::int64_t ring = 1; ring <= kMaxRing && !s.pending.empty(); ++ring) {
+        if (!gather(s.block, cell, ring, ring == 1 ? cursor : nullptr)) break;
+        s.still.clear();
+        for (const Index e : s.pending)
+          if (!answer(s, e, cell, ring)) s.still.push_back(e);
+        s.pending.swap(s.still);
+      }
+      for (const Index e : s.pending) unresolved_[e] = 1;
+    }
+  }
+
+  // The queries the grid left: through `tree`, a scan of every point, or a tree built here.
+  void fallback(std::span<const Index> entries, const KdTree* tree) const {
+    if (entries.empty()) return;
+    std::unique_ptr<KdTree> own;
+    if (tree == nullptr && entries.size() > kScanLimit) {
+      own = std::make_unique<KdTree>(g_.points);
+      tree = own.get();
+    }
+    parallel_for(entries.size(), [&](std::size_t b, std::size_t e) {
+      std::vector<double> best_d2(static_cast<std::size_t>(want_));
+      std::vector<Index> best_id(static_cast<std::size_t>(want_));
+      std::vector<double> d2;
+      for (std::size_t i = b; i < e; ++i) {
+        const std::size_t pos = q_.pos[entries[i]];
+        const Index self = g_.order[pos];
+        int found = 0;
+        if (tree != nullptr) {
+          found = tree->nearest(g_.points[self], want_, max_d2_, best_id.data(), best_d2.data());
+        } else {
+          Nearest nearest(want_, max_d2_, best_d2.data(), best_id.data());
+          constexpr std::size_t kBlock = 1024;
+          d2.resize(kBlock);
+          for (std::size_t from = 0; from < g_.size(); from += kBlock) {
+            const std::size_t m = std::min(kBlock, g_.size() - from);
+            for (std::size_t j = 0; j < m; ++j)
+              d2[j] = distance2(g_.x[pos], g_.y[pos], g_.z[pos], g_.x[from + j], g_.y[from + j],
+                                g_.z[from + j]);
+            nearest.offer(d2.data(), g_.order.data() + from, m);
+          }
+          found = nearest.count();
+        }
+        write_row(q_.row[entries[i]], self, best_id.data(), found, best_d2.data());
+      }
+    }, 1);
+  }
+
+ private:
+  static constexpr std::size_t kNoCursor = std::numeric_limits<std::size_t>::max();
+
+  std::uint64_t key(std::int64_t cx, std::int64_t cy, std::int64_t cz) const {
+    return static_cast<std::uint64_t>((cz * g_.dims[1] + cy) * g_.dims[0] + cx);
+  }
+
+  // Cell coordinate of a position u in cell units (clamped into the grid, as the points are).
+  std::int64_t clamp_cell(double u, int a) const {
+    if (!(u > 0.0)) return 0;
+    const double top = static_cast<double>(g_.dims[a] - 1);
+    return u >= top ? g_.dims[a] - 1 : static_cast<std::int64_t>(u);
+  }
+
+  // First cell with a key >= k, at or after `from` (all keys before `from` are < k).
+  std::size_t seek(std::uint64_t k, std::size_t from) const {
+    const std::size_t count = g_.keys.size();
+    if (from == kNoCursor) {
+      return static_cast<std::size_t>(std::lower_bound(g_.keys.begin(), g_.keys.end(), k) -
+                                      g_.keys.begin());
+    }
+    if (from >= count || g_.keys[from] >= k) return from;
+    // Galloping: keys[lo] < k; double the step until a key >= k (or the end) is passed.
+    std::size_t lo = from, step = 1;
+    while (lo + step < count && g_.keys[lo + step] < k) {
+      lo += step;
+      step *= 2;
+    }
+    const std::size_t hi = std::min(count, lo + step);
+    return static_cast<std::size_t>(
+        std::lower_bound(g_.keys.begin() + static_cast<std::ptrdiff_t>(lo + 1),
+                         g_.keys.begin() + static_cast<std::ptrdiff_t>(hi), k) -
+        g_.keys.begin());
+  }
+
+  // Appends the points of cells x0..x1 of row (y, z) to `to`; `cursor` is a position at or
+  // before the row's first cell (kNoCursor: unknown) and is moved to it.
+  void add_row(Candidates& to, std::int64_t x0, std::int64_t x1, std::int64_t y, std::int64_t z,
+               std::size_t& cursor) const {
+    if (x0 > x1 || y < 0 || y >= g_.dims[1] || z < 0 || z >= g_.dims[2]) return;
+    const std::uint64_t lo = key(x0, y, z), hi = key(x1, y, z);
+    const std::size_t a = seek(lo, cursor);
+    cursor = a;
+    std::size_t b = a;
+    while (b < g_.keys.size() && g_.keys[b] <= hi) ++b;
+    if (b > a) to.append(g_, g_.starts[a], g_.starts[b]);
+  }
+
+  // Collects the points of the block of radius `ring` around `cell`; false if they are more
+  // than the budget (the queries then go to the fallback). With `cursor` (ring 1), each row
+  // resumes from its position for the previous cell: the rows of consecutive cells move forward.
+  bool gather(Candidates& to, const std::int64_t* cell, std::int64_t ring, std::size_t* cursor) const {
+    to.m = 0;
+    const std::int64_t x0 = std::max<std::int64_t>(cell[0] - ring, 0);
+    const std::int64_t x1 = std::min<std::int64_t>(cell[0] + ring, g_.dims[0] - 1);
+    if (cursor != nullptr) {
+      for (std::size_t r = 0; r < 9; ++r) {
+        add_row(to, x0, x1, cell[1] + kRows1[r][0], cell[2] + kRows1[r][1], cursor[r]);
+        if (to.m > budget_) return false;
+      }
+      return true;
+    }
+    for (std::int64_t z = cell[2] - ring; z <= cell[2] + ring; ++z) {
+      std::size_t at = kNoCursor;  // the rows of one z ascend
+      for (std::int64_t y = cell[1] - ring; y <= cell[1] + ring; ++y) {
+        add_row(to, x0, x1, y, z, at);
+        if (to.m > budget_) return false;
+      }
+    }
+    return true;
+  }
+
+  // Searches query entry e among the gathered block (and, if needed, the cells of its reach
+  // beyond it); writes its row and returns true once the result is certainly exact.
+  bool answer(Scratch& s, Index e, const std::int64_t* cell, std::int64_t ring) const {
+    const std::size_t pos = q_.pos[e];
+    const double q[3] = {g_.x[pos], g_.y[pos], g_.z[pos]};
+    Candidates& block = s.block;
+    block.distances(q[0], q[1], q[2]);
+
+    // Only the candidates within a threshold t enter the (quadratic) sorted insertion: t is
+    // refined, counting in one vectorised pass each time, until between want and want + slack
+    // candidates lie within it (or every candidate within the bound). It starts from the
+    // previous query's want-th distance, a little enlarged: consecutive queries are neighbours.
+    const std::size_t want = static_cast<std::size_t>(want_);
+    const std::size_t slack = std::max<std::size_t>(4, want / 4);
+    const std::size_t m = block.m;
+    const double* d2 = block.d2.data();
+    const auto within = [&](double limit) { return count_within(d2, m, limit); };
+    double t = std::min(s.guess, max_d2_);
+    double below = 0.0, above = kInf;  // thresholds with fewer than want / too many within
+    std::size_t c = within(t);
+    for (int round = 0; round < 6; ++round) {
+      double next = 0.0;
+      if (c < want) {
+        if (c == m || !(t < max_d2_)) break;
+        below = t;
+        next = above < kInf ? std::sqrt(below * above) : std::max(4.0 * t, floor_d2_);
+      } else if (c > want + slack) {
+        above = t;
+        // Counts grow about like t^(dimension / 2): aim at want + slack / 2.
+        const double ratio = static_cast<double>(want + slack / 2) / static_cast<double>(c);
+        next = t * std::sqrt(ratio * std::sqrt(ratio));  // ratio^0.75
+        if (!(next > below)) next = below > 0.0 ? std::sqrt(below * above) : 0.5 * above;
+      } else {
+        break;
+      }
+      t = std::min(next, max_d2_);
+      c = within(t);
+    }
+    if (c < want && c < m && t < max_d2_) t = std::min(above, max_d2_);
+    Nearest nearest(want_, max_d2_, s.best_d2.data(), s.best_id.data());
+    nearest.offer_within(d2, block.id.data(), m, t);
+
+    if (!within_block(q, cell, ring, nearest) && !extend(s, q, cell, ring, nearest)) return false;
+    if (nearest.full()) s.guess = 1.15 * nearest.last();
+    write_row(q_.row[e], g_.order[pos], nearest.ids(), nearest.count(), s.best_d2.data());
+    return true;
+  }
+
+  // True if no point outside the block could enter the result: the want-th distance (or the
+  // bound, when fewer were found) is below the distance from q to the block's boundary. Sides
+  // at the grid's border have nothing beyond them (border cells hold every point clamped in).
+  bool within_block(const double* q, const std::int64_t* cell, std::int64_t ring,
+                    const Nearest& nearest) const {
+    double gap = kInf;  // in cells
+    for (int a = 0; a < 3; ++a) {
+      const double u = (q[a] - g_.origin[a]) * g_.inverse_cell;
+      if (cell[a] - ring > 0) gap = std::min(gap, u - static_cast<double>(cell[a] - ring));
+      if (cell[a] + ring < g_.dims[a] - 1) gap = std::min(gap, static_cast<double>(cell[a] + ring + 1) - u);
+    }
+    if (!(gap < kInf)) return true;
+    // Every point outside the block has a squared distance of at least `outside`.
+    const double reach = (gap - kGapMargin) * g_.cell;
+    if (!(reach > 0.0)) return false;
+    const double outside = reach * reach * (1.0 - kRelativeMargin);
+    const double needed = nearest.full() ? nearest.last() : max_d2_;
+    return needed < outside;
+  }
+
+  // Completes a result the block could not settle: offers the points of every cell that meets
+  // the box q +- r and lies outside the block, r being the current want-th distance (or eps
+  // when fewer were found). Every point left out is then farther than r. False if r is
+  // unbounded or the box spans more than 2 kMaxRing + 1 cells on an axis.
+  bool extend(Scratch& s, const double* q, const std::int64_t* cell, std::int64_t ring,
+              Nearest& nearest) const {
+    const double r2 = nearest.full() ? nearest.last() : max_d2_;
+    if (!(r2 < kInf)) return false;
+    const double reach = std::sqrt(r2) * g_.inverse_cell * (1.0 + kRelativeMargin) + kGapMargin;
+    std::int64_t lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      const double u = (q[a] - g_.origin[a]) * g_.inverse_cell;
+      lo[a] = clamp_cell(u - reach, a);
+      hi[a] = clamp_cell(u + reach, a);
+      if (hi[a] - lo[a] > 2 * kMaxRing) return false;
+    }
+    Candidates& extra = s.extra;
+    extra.m = 0;
+    for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+      std::size_t at = kNoCursor;  // the rows of one z ascend
+      for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
+        if (std::abs(y - cell[1]) <= ring && std::abs(z - cell[2]) <= ring) {
+          // A row through the block: only its cells left and right of it.
+          add_row(extra, lo[0], std::min(hi[0], cell[0] - ring - 1), y, z, at);
+          add_row(extra, std::max(lo[0], cell[0] + ring + 1), hi[0], y, z, at);
+        } else {
+          add_row(extra, lo[0], hi[0], y, z, at);
+        }
+        if (extra.m > budget_) return false;
+      }
+    }
+    extra.distances(q[0], q[1], q[2]);
+    nearest.offer(extra.d2.data(), extra.id.data(), extra.m);
+    return true;
+  }
+
+  void write_row(std::size_t row, Index self, const Index* ids, int found, const double* d2) const {
+    if (!last_d2_.empty()) last_d2_[row] = found > 0 ? d2[found - 1] : 0.0;
+    Index* dst = out_.indices.data() + row * static_cast<std::size_t>(k_);
+    int count = 0;
+    for (int j = 0; j < found && count < k_; ++j) {
+      if (ids[j] == self) continue;
+      dst[count++] = ids[j];
+    }
+    out_.counts[row] = static_cast<std::uint16_t>(count);
+  }
+
+  const CellGrid& g_;
+  const Queries& q_;
+  int k_;
+  int want_;
+  double max_d2_;
+  std::size_t budget_;
+  double floor_d2_;  // the smallest threshold tried after 0 (duplicates)
+  Neighborhoods& out_;
+  std::span<double> last_d2_;
+  std::vector<std::uint8_t>& unresolved_;
+};
+
+Neighborhoods search(const CellGrid& g, const Queries& q, int k, double eps, const KdTree* tree,
+                     std::span<double> last_d2) {
+  require(k >= 1 && k <= 1024, "k must be in 1..1024, got " + std::to_string(k));
+  require(eps > 0.0, "eps must be positive");
+  Neighborhoods out;
+  out.stride = k;
+  out.eps = eps;
+  out.indices.assign(q.pos.size() * static_cast<std::size_t>(k), 0);
+  out.counts.assign(q.pos.size(), 0);
+  std::vector<std::uint8_t> unresolved(q.pos.size(), 0);
+  require(last_d2.empty() || last_d2.size() == q.pos.size(), "last_d2 must hold one value per row");
+  const Search search(g, q, k, eps, out, last_d2, unresolved);
+  // About 2048 queries a task.
+  const std::size_t cells = q.cell.size();
+  const std::size_t grain =
+      std::max<std::size_t>(1, 2048 * cells / std::max<std::size_t>(1, q.pos.size()));
+  parallel_for(cells, [&](std::size_t b, std::size_t e) { search.run(b, e); }, grain);
+  std::vector<Index> rest;
+  for (std::size_t e = 0; e < unresolved.size(); ++e)
+    if (unresolved[e] != 0) rest.push_back(static_cast<Index>(e));
+  search.fallback(rest, tree);
+  return out;
+}
+
+}  // namespace
+
+Neighborhoods grid_neighborhoods(const CellGrid& grid, std::span<const Index> queries, int k,
+                                 double eps, const KdTree* tree) {
+  return search(grid, some_points(grid, queries), k, eps, tree, {});
+}
+
+Neighborhoods grid_neighborhoods(const CellGrid& grid, int k, double eps,
+                                 std::span<const Index> row_of, std::span<double> last_d2) {
+  require(row_of.empty() || row_of.size() == grid.size(), "row_of must hold one row per point");
+  return search(grid, every_point(grid, row_of), k, eps, nullptr, last_d2);
+}
+
+}  // namespace pointfair
