@@ -2,10 +2,12 @@
 // Run: build/bench/pointfair_bench_kernels --benchmark_filter=... (Release build).
 #include <benchmark/benchmark.h>
 
+#include <limits>
 #include <vector>
 
 #include "pointfair/euler_step.hpp"
 #include "pointfair/kd_tree.hpp"
+#include "pointfair/knn_grid.hpp"
 #include "pointfair/neighborhoods.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/shapes.hpp"
@@ -30,11 +32,36 @@ void BM_KdTreeBuild(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
 
+// The whole-cloud build as build_neighborhoods runs it (cell grid, automatic eps).
 void BM_Neighborhoods(benchmark::State& state) {
   const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
   for (auto _ : state) {
     Neighborhoods nb = build_neighborhoods(points, {.k = 16});
     benchmark::DoNotOptimize(nb.indices.data());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+
+// The same lists through one k-d tree query per point (the path before the cell grid):
+// tree, automatic eps, queries.
+void BM_NeighborhoodsKdTree(benchmark::State& state) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  std::vector<Index> all(points.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<Index>(i);
+  for (auto _ : state) {
+    const KdTree tree(points);
+    Neighborhoods nb = build_neighborhoods_kd_tree(tree, all, 16, resolve_eps(points, tree, {.k = 16}));
+    benchmark::DoNotOptimize(nb.indices.data());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+
+// The grid alone: sorting the points into cells.
+void BM_CellGridBuild(benchmark::State& state) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  for (auto _ : state) {
+    CellGrid grid = build_cell_grid(points, 16, std::numeric_limits<double>::infinity());
+    benchmark::DoNotOptimize(grid.order.data());
   }
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
@@ -84,6 +111,8 @@ void BM_AnisotropicStep(benchmark::State& state) { step_benchmark(state, Flow::A
 
 BENCHMARK(BM_KdTreeBuild)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Neighborhoods)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_NeighborhoodsKdTree)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_CellGridBuild)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Frames)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Weingarten)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_IsotropicStep)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();

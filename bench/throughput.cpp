@@ -8,6 +8,13 @@
 //
 //   pointfair_throughput [--points N] [--steps S] [--k K] [--repeats R] [--json FILE]
 //                        [--sizes N1,N2,...] [--no-memory] [--no-cgal]
+//                        [--neighbors-only [--kd-tree]]
+//
+// --neighbors-only times the neighbourhood build alone (the path build_neighborhoods takes;
+// with --kd-tree the same lists through one k-d tree query per point, the old path) for
+// 1..all threads and exits. Under `valgrind --tool=callgrind`, its instruction count minus
+// that of --repeats 0, divided by points x repeats x thread counts, is the build's
+// instructions per point, a figure the machine's load does not change.
 //
 // Memory is measured in a child process forked before the parent starts any thread or fills
 // its heap: the child generates the cloud, returns its free heap to the system (malloc_trim),
@@ -31,6 +38,8 @@
 #include <malloc.h>
 #endif
 
+#include "pointfair/kd_tree.hpp"
+#include "pointfair/neighborhoods.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
@@ -160,12 +169,14 @@ int main(int argc, char** argv) {
   int steps = 10, k = 16, repeats = 3;
   std::string json_path;
   std::vector<std::size_t> sizes;
-  bool memory = true, cgal = true;
+  bool memory = true, cgal = true, neighbors_only = false, kd_tree = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
     if (a == "--no-memory") memory = false;
     else if (a == "--no-cgal") cgal = false;
+    else if (a == "--neighbors-only") neighbors_only = true;
+    else if (a == "--kd-tree") kd_tree = true;
     else if (a == "--points" && has_value) points = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--steps" && has_value) steps = std::atoi(argv[++i]);
     else if (a == "--k" && has_value) k = std::atoi(argv[++i]);
@@ -175,18 +186,19 @@ int main(int argc, char** argv) {
     else {
       std::fprintf(stderr,
                    "usage: %s [--points N] [--steps S] [--k K] [--repeats R] [--json FILE] "
-                   "[--sizes N1,N2,...] [--no-memory] [--no-cgal]\n", argv[0]);
+                   "[--sizes N1,N2,...] [--no-memory] [--no-cgal] [--neighbors-only [--kd-tree]]\n",
+                   argv[0]);
       return 2;
     }
   }
-  if (points < 100 || steps < 1 || k < 2 || repeats < 1) {
+  if (points < 100 || steps < 1 || k < 2 || repeats < (neighbors_only ? 0 : 1)) {
     std::fprintf(stderr, "%s: need --points >= 100, --steps >= 1, --k >= 2, --repeats >= 1\n", argv[0]);
     return 2;
   }
 
   // Memory first: the children must be forked before this process starts worker threads.
   double build_bytes = -1.0, smooth_bytes = -1.0;
-  if (memory) {
+  if (memory && !neighbors_only) {
     build_bytes = stage_bytes_per_point(Stage::Neighbors, points, k);
     smooth_bytes = stage_bytes_per_point(Stage::Smooth, points, k);
   }
@@ -199,6 +211,30 @@ int main(int argc, char** argv) {
   const std::vector<Vec3> cloud = make_cloud(points);
   std::printf("pointfair %s throughput: %zu points (noisy cube, random order), k = %d, %d steps, "
               "median of %d runs\n\n", version(), points, k, steps, repeats);
+
+  if (neighbors_only) {
+    std::vector<Index> every(kd_tree ? points : 0);
+    for (std::size_t i = 0; i < every.size(); ++i) every[i] = static_cast<Index>(i);
+    for (int threads = 1; threads <= cores; ++threads) {
+      set_thread_count(threads);
+      std::vector<double> times;
+      for (int r = 0; r < repeats; ++r) {
+        const auto t0 = Clock::now();
+        if (kd_tree) {
+          const KdTree tree(cloud);
+          const Neighborhoods nb = build_neighborhoods_kd_tree(tree, every, k, resolve_eps(cloud, tree, {.k = k}));
+        } else {
+          const Neighborhoods nb = build_neighborhoods(cloud, {.k = k});
+        }
+        times.push_back(seconds_since(t0));
+      }
+      std::printf("  neighbourhood build%s %10.3g points/s (%d thread%s)\n", kd_tree ? " (k-d tree)" : "",
+                  times.empty() ? 0.0 : static_cast<double>(points) / median(times), threads,
+                  threads > 1 ? "s" : "");
+    }
+    set_thread_count(0);
+    return 0;
+  }
 
   // Neighbourhood build rate, all threads.
   std::vector<double> build_times;
