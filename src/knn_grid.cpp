@@ -60,21 +60,25 @@ std::size_t count_within(const double* d2, std::size_t m, double limit) {
   return count;
 }
 
+struct Entry {
+  double d2;
+  Index id;
+};
+
 // The `cap` smallest (squared distance, index) pairs offered with distance <= bound, sorted by
 // distance, ties by the smaller index: the k-d tree's canonical result set.
 class Nearest {
  public:
-  Nearest(int cap, double bound, double* d2, Index* ids)
-      : cap_(cap), bound_(bound), worst_(bound), d2_(d2), ids_(ids) {}
-
-  void reset() {
-    count_ = 0;
-    worst_ = bound_;
+  // `slots` holds cap + 1 entries; the first is a sentinel below every squared distance.
+  Nearest(int cap, double bound, Entry* slots)
+      : cap_(cap), bound_(bound), worst_(bound), e_(slots + 1) {
+    slots[0] = {-1.0, 0};
   }
+
   int count() const { return count_; }
   bool full() const { return count_ == cap_; }
-  double last() const { return d2_[count_ - 1]; }
-  const Index* ids() const { return ids_; }
+  double last() const { return e_[count_ - 1].d2; }
+  const Entry* entries() const { return e_; }
 
   // Offers the pairs with d2[j] <= limit (<= the bound): a vectorised scan that finds the few
   // of them without a branch per candidate.
@@ -104,27 +108,24 @@ class Nearest {
   void insert(double d, Index id) {
     int p = 0;
     if (count_ == cap_) {
-      if (d == worst_ && id > ids_[cap_ - 1]) return;
+      if (d == worst_ && id > e_[cap_ - 1].id) return;
       p = cap_ - 1;
     } else {
       p = count_++;
     }
-    while (p > 0 && (d2_[p - 1] > d || (d2_[p - 1] == d && ids_[p - 1] > id))) {
-      d2_[p] = d2_[p - 1];
-      ids_[p] = ids_[p - 1];
+    // The sentinel e_[-1] stops the walk.
+    while (e_[p - 1].d2 > d || (e_[p - 1].d2 == d && e_[p - 1].id > id)) {
+      e_[p] = e_[p - 1];
       --p;
     }
-    d2_[p] = d;
-    ids_[p] = id;
-    if (count_ == cap_) worst_ = d2_[cap_ - 1];
+    e_[p] = {d, id};
+    if (count_ == cap_) worst_ = e_[cap_ - 1].d2;
   }
 
- private:
   int cap_;
   double bound_;
   double worst_;
-  double* d2_;
-  Index* ids_;
+  Entry* e_;
   int count_ = 0;
 };
 
@@ -433,7 +434,8 @@ struct Candidates {
     const double* py = y.data();
     const double* pz = z.data();
     double* d = d2.data();
-    for (std::size_t j = 0; j < m; ++j) d[j] = distance2(qx, qy, qz, px[j], py[j], pz[j]);
+    // p - q rather than q - p: the same squares, and no register copy of q per subtraction.
+    for (std::size_t j = 0; j < m; ++j) d[j] = distance2(px[j], py[j], pz[j], qx, qy, qz);
   }
 };
 
@@ -441,8 +443,7 @@ struct Candidates {
 struct Scratch {
   Candidates block;  // the points of the current cell's block
   Candidates extra;  // one query's points beyond the block
-  std::vector<double> best_d2;
-  std::vector<Index> best_id;
+  std::vector<Entry> best;  // want + 1 entries (a sentinel first)
   std::vector<Index> pending, still;
   double guess = 0.0;  // squared distance: the first selection threshold
 };
@@ -464,8 +465,7 @@ class Search {
   // the cells of its own reach; queries that find too few points try wider blocks.
   void run(std::size_t cb, std::size_t ce) const {
     Scratch s;
-    s.best_d2.resize(static_cast<std::size_t>(want_));
-    s.best_id.resize(static_cast<std::size_t>(want_));
+    s.best.resize(static_cast<std::size_t>(want_) + 1);
     s.guess = std::isfinite(g_.cell) ? g_.cell * g_.cell : kInf;
     std::size_t cursor[9];
     std::fill(cursor, cursor + 9, kNoCursor);
@@ -500,6 +500,7 @@ class Search {
     parallel_for(entries.size(), [&](std::size_t b, std::size_t e) {
       std::vector<double> best_d2(static_cast<std::size_t>(want_));
       std::vector<Index> best_id(static_cast<std::size_t>(want_));
+      std::vector<Entry> best(static_cast<std::size_t>(want_) + 1);
       std::vector<double> d2;
       for (std::size_t i = b; i < e; ++i) {
         const std::size_t pos = q_.pos[entries[i]];
@@ -507,8 +508,9 @@ class Search {
         int found = 0;
         if (tree != nullptr) {
           found = tree->nearest(g_.points[self], want_, max_d2_, best_id.data(), best_d2.data());
+          for (std::size_t j = 0; j < static_cast<std::size_t>(found); ++j) best[j + 1] = {best_d2[j], best_id[j]};
         } else {
-          Nearest nearest(want_, max_d2_, best_d2.data(), best_id.data());
+          Nearest nearest(want_, max_d2_, best.data());
           constexpr std::size_t kBlock = 1024;
           d2.resize(kBlock);
           for (std::size_t from = 0; from < g_.size(); from += kBlock) {
@@ -520,7 +522,7 @@ class Search {
           }
           found = nearest.count();
         }
-        write_row(q_.row[entries[i]], self, best_id.data(), found, best_d2.data());
+        write_row(q_.row[entries[i]], self, best.data() + 1, found);
       }
     }, 1);
   }
@@ -610,7 +612,7 @@ class Search {
     // candidates lie within it (or every candidate within the bound). It starts from the
     // previous query's want-th distance, a little enlarged: consecutive queries are neighbours.
     const std::size_t want = static_cast<std::size_t>(want_);
-    const std::size_t slack = std::max<std::size_t>(4, want / 4);
+    const std::size_t slack = std::max<std::size_t>(4, want / 2);
     const std::size_t m = block.m;
     const double* d2 = block.d2.data();
     const auto within = [&](double limit) { return count_within(d2, m, limit); };
@@ -636,12 +638,12 @@ class Search {
       c = within(t);
     }
     if (c < want && c < m && t < max_d2_) t = std::min(above, max_d2_);
-    Nearest nearest(want_, max_d2_, s.best_d2.data(), s.best_id.data());
+    Nearest nearest(want_, max_d2_, s.best.data());
     nearest.offer_within(d2, block.id.data(), m, t);
 
     if (!within_block(q, cell, ring, nearest) && !extend(s, q, cell, ring, nearest)) return false;
-    if (nearest.full()) s.guess = 1.15 * nearest.last();
-    write_row(q_.row[e], g_.order[pos], nearest.ids(), nearest.count(), s.best_d2.data());
+    if (nearest.full()) s.guess = 1.3 * nearest.last();
+    write_row(q_.row[e], g_.order[pos], nearest.entries(), nearest.count());
     return true;
   }
 
@@ -701,13 +703,13 @@ class Search {
     return true;
   }
 
-  void write_row(std::size_t row, Index self, const Index* ids, int found, const double* d2) const {
-    if (!last_d2_.empty()) last_d2_[row] = found > 0 ? d2[found - 1] : 0.0;
+  void write_row(std::size_t row, Index self, const Entry* best, int found) const {
+    if (!last_d2_.empty()) last_d2_[row] = found > 0 ? best[found - 1].d2 : 0.0;
     Index* dst = out_.indices.data() + row * static_cast<std::size_t>(k_);
     int count = 0;
     for (int j = 0; j < found && count < k_; ++j) {
-      if (ids[j] == self) continue;
-      dst[count++] = ids[j];
+      if (best[j].id == self) continue;
+      dst[count++] = best[j].id;
     }
     out_.counts[row] = static_cast<std::uint16_t>(count);
   }
