@@ -71,7 +71,7 @@ class Nearest {
  public:
   // `slots` holds cap + 1 entries; the first is a sentinel below every squared distance.
   Nearest(int cap, double bound, Entry* slots)
-      : cap_(cap), bound_(bound), worst_(bound), e_(slots + 1) {
+      : cap_(cap), worst_(bound), e_(slots + 1) {
     slots[0] = {-1.0, 0};
   }
 
@@ -123,7 +123,6 @@ class Nearest {
   }
 
   int cap_;
-  double bound_;
   double worst_;
   Entry* e_;
   int count_ = 0;
