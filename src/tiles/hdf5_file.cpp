@@ -146,6 +146,25 @@ Handle empty_space(int rank, hsize_t width) {
   return space;
 }
 
+// File and memory selections of rows [first, first + count) of `dataset` (rank 1 or 2, `width`
+// columns); count 0 selects nothing, for a collective transfer with no rows of its own.
+struct RowSelection {
+  Handle file_space;
+  Handle mem_space;
+};
+RowSelection select_rows(hid_t dataset, int rank, hsize_t width, std::uint64_t first, std::uint64_t count) {
+  RowSelection s{Handle(H5Dget_space(dataset)), Handle()};
+  if (count == 0) {
+    H5Sselect_none(s.file_space.get());
+    s.mem_space = empty_space(rank, width);
+  } else {
+    const hsize_t start[2] = {first, 0}, extent[2] = {count, width};
+    H5Sselect_hyperslab(s.file_space.get(), H5S_SELECT_SET, start, nullptr, extent, nullptr);
+    s.mem_space = Handle(H5Screate_simple(rank, extent, nullptr));
+  }
+  return s;
+}
+
 }  // namespace
 
 TransferCounts transfer_counts() { return counts_; }
@@ -512,20 +531,12 @@ void Dataset::read_rows_raw(std::uint64_t first, std::uint64_t count, Type memor
   const bool collective = together(transfer);
   if (count == 0 && !collective) return;
   if (first + count > rows_) fail("rows out of range");
-  Handle file_space(H5Dget_space(handle_.get()));
-  const hsize_t start[2] = {first, 0}, extent[2] = {count, width_};
-  Handle mem_space;
+  const RowSelection selection = select_rows(handle_.get(), rank_, width_, first, count);
   double nothing = 0.0;
-  if (count == 0) {
-    H5Sselect_none(file_space.get());
-    mem_space = empty_space(rank_, width_);
-    out = &nothing;
-  } else {
-    H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, extent, nullptr);
-    mem_space = Handle(H5Screate_simple(rank_, extent, nullptr));
-  }
+  if (count == 0) out = &nothing;
   const Handle dxpl = transfer_list(collective);
-  if (H5Dread(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), list_or_default(dxpl), out) < 0)
+  if (H5Dread(handle_.get(), memory_type(memory), selection.mem_space.get(), selection.file_space.get(),
+              list_or_default(dxpl), out) < 0)
     fail("read failed (rows " + std::to_string(first) + ".." + std::to_string(first + count) + ")");
   count_transfer(dxpl);
 }
@@ -535,20 +546,12 @@ void Dataset::write_rows_raw(std::uint64_t first, std::uint64_t count, Type memo
   const bool collective = together(transfer);
   if (count == 0 && !collective) return;
   if (first + count > rows_) fail("rows out of range");
-  Handle file_space(H5Dget_space(handle_.get()));
-  const hsize_t start[2] = {first, 0}, extent[2] = {count, width_};
-  Handle mem_space;
+  const RowSelection selection = select_rows(handle_.get(), rank_, width_, first, count);
   const double nothing = 0.0;
-  if (count == 0) {
-    H5Sselect_none(file_space.get());
-    mem_space = empty_space(rank_, width_);
-    data = &nothing;
-  } else {
-    H5Sselect_hyperslab(file_space.get(), H5S_SELECT_SET, start, nullptr, extent, nullptr);
-    mem_space = Handle(H5Screate_simple(rank_, extent, nullptr));
-  }
+  if (count == 0) data = &nothing;
   const Handle dxpl = transfer_list(collective);
-  if (H5Dwrite(handle_.get(), memory_type(memory), mem_space.get(), file_space.get(), list_or_default(dxpl), data) < 0)
+  if (H5Dwrite(handle_.get(), memory_type(memory), selection.mem_space.get(), selection.file_space.get(),
+               list_or_default(dxpl), data) < 0)
     fail("write failed (rows " + std::to_string(first) + ".." + std::to_string(first + count) + ")");
   count_transfer(dxpl);
 }
