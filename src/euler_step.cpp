@@ -170,16 +170,6 @@ Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
     // Covariance of {p} ∪ N about its barycentre p + mean (p itself is the offset 0).
     const double inv_count = 1.0 / static_cast<double>(m + 1);
     Vec3 mean = sum * inv_count;
-    Eigen::Matrix3d covariance;
-    covariance(0, 0) = lane_sum(sxx) * inv_count - mean.x() * mean.x();
-    covariance(0, 1) = lane_sum(sxy) * inv_count - mean.x() * mean.y();
-    covariance(0, 2) = lane_sum(sxz) * inv_count - mean.x() * mean.z();
-    covariance(1, 1) = lane_sum(syy) * inv_count - mean.y() * mean.y();
-    covariance(1, 2) = lane_sum(syz) * inv_count - mean.y() * mean.z();
-    covariance(2, 2) = lane_sum(szz) * inv_count - mean.z() * mean.z();
-    covariance(1, 0) = covariance(0, 1);
-    covariance(2, 0) = covariance(0, 2);
-    covariance(2, 1) = covariance(1, 2);
     NormalEstimate estimate;
     if (params.normal_estimator == NormalEstimator::Robust) {
       // The robust plane (robust_frame.hpp) instead of the PCA plane: its normal and its
@@ -188,6 +178,16 @@ Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
       estimate = NormalEstimate{plane.normal, plane.valid};
       mean = plane.mean;
     } else {
+      Eigen::Matrix3d covariance;
+      covariance(0, 0) = lane_sum(sxx) * inv_count - mean.x() * mean.x();
+      covariance(0, 1) = lane_sum(sxy) * inv_count - mean.x() * mean.y();
+      covariance(0, 2) = lane_sum(sxz) * inv_count - mean.x() * mean.z();
+      covariance(1, 1) = lane_sum(syy) * inv_count - mean.y() * mean.y();
+      covariance(1, 2) = lane_sum(syz) * inv_count - mean.y() * mean.z();
+      covariance(2, 2) = lane_sum(szz) * inv_count - mean.z() * mean.z();
+      covariance(1, 0) = covariance(0, 1);
+      covariance(2, 0) = covariance(0, 2);
+      covariance(2, 1) = covariance(1, 2);
       estimate = normal_from_covariance(covariance);
     }
     if (!estimate.valid || m < 2) return out;
