@@ -417,10 +417,6 @@ void Import::count_and_bounds() {
     n_ += got;
     progress("count", n_, 0);
   }
-  // A LAS reader adds the EVLRs (after the points) to its schema once the last point is read
-  // (with several ranks only the last rank's share reaches them, so an MPI import keeps the
-  // VLRs but not the EVLRs).
-  schema_.las = reader->schema().las;
   if (size > 1) {
     if (end_ != std::numeric_limits<std::uint64_t>::max() && n_ != end_ - first_) changed(input_);
     // Every rank's reader reads the file's last point (seeking to it), as a single process's
@@ -433,6 +429,10 @@ void Import::count_and_bounds() {
     n_ = ranks_->sum(n_);
     if (declared && n_ != *declared) changed(input_);
   }
+  // A LAS reader adds the EVLRs (after the points) to its schema once the last point is read:
+  // taken only now, after every rank's reader has read it (taken before, only the last rank's
+  // share reached them, and the ranks wrote different LAS records).
+  schema_.las = reader->schema().las;
   if (n_ >= std::numeric_limits<std::uint32_t>::max())
     throw io::IoError(input_.string() + ": " + std::to_string(n_) + " points exceed the limit of 2^32-2 of a container");
 }

@@ -89,6 +89,25 @@ TEST_F(MpiImportTest, LasAndTextFilesEqualTheSingleProcessImport) {
   expect_same_import("in.xyz", "--tile-points 500", {2});  // rank 0 reads the text alone
 }
 
+// A LAS 1.4 file's EVLRs (after the points) are read by every rank, not only by the last
+// rank's share: the container's LAS records equal the single-process import's.
+TEST_F(MpiImportTest, LasEvlrsReachEveryRank) {
+  io::PointTable cloud = test::noisy_cube(3000, 8);
+  io::LasMetadata las;
+  las.version_minor = 4;
+  las.point_format = 6;
+  las.records.push_back({"LASF_Projection", 2112, "OGC WKT", "PROJCS[\"x\"]", false});
+  las.records.push_back({"pointfair", 7, "an extended record", std::string(70000, 'Z'), true});
+  cloud.las = las;
+  io::write_points(path("evlr.las"), cloud);
+  expect_same_import("evlr.las", "--tile-points 500", {3});
+  const io::PointTable back = read_container(path("mpi3.h5"));
+  ASSERT_TRUE(back.las);
+  ASSERT_EQ(back.las->records.size(), 2u);
+  EXPECT_TRUE(back.las->records[1].extended);
+  EXPECT_EQ(back.las->records[1].data, std::string(70000, 'Z'));
+}
+
 TEST_F(MpiImportTest, CellsCutIntoTilesGridTilesAndDeflateEqualTheSingleProcessImport) {
   // 1500 copies of one point: a histogram cell cut into tiles of consecutive input points,
   // whose points the ranks share.
