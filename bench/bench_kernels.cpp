@@ -66,6 +66,18 @@ void BM_CellGridBuild(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
 
+// The search alone on a built grid: every point's 16 nearest, no eps bound (the pass
+// build_neighborhoods makes before it measures the automatic eps and cuts the rows).
+void BM_KnnGridSearch(benchmark::State& state) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  const CellGrid grid = build_cell_grid(points, 16, std::numeric_limits<double>::infinity());
+  for (auto _ : state) {
+    Neighborhoods nb = grid_neighborhoods(grid, 16, std::numeric_limits<double>::infinity());
+    benchmark::DoNotOptimize(nb.indices.data());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+
 void BM_Frames(benchmark::State& state) {
   const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
   const Neighborhoods nb = build_neighborhoods(points, {.k = 16});
@@ -113,6 +125,7 @@ BENCHMARK(BM_KdTreeBuild)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(be
 BENCHMARK(BM_Neighborhoods)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_NeighborhoodsKdTree)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_CellGridBuild)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_KnnGridSearch)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Frames)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_Weingarten)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_IsotropicStep)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();

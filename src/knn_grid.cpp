@@ -11,6 +11,14 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
+// AVX2 versions of the scans, chosen at run time: four squared distances or comparisons an
+// instruction instead of two. Only adds, subtractions, multiplications and comparisons, each
+// rounded as in the scalar code (no fused multiply-add), so every distance is the same bit for
+// bit on either path.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define POINTFAIR_KNN_AVX2 1
+#include <immintrin.h>
+#endif
 
 #include "pointfair/kd_tree.hpp"
 #include "pointfair/neighborhoods.hpp"
@@ -26,7 +34,7 @@ constexpr int kProbes = 16;
 // Blocks of (2R+1)^3 cells are tried for R = 1 .. kMaxRing before the k-d tree.
 constexpr std::int64_t kMaxRing = 3;
 // Cell size over the median distance to the k-th nearest point.
-constexpr double kCellFactor = 1.0;
+constexpr double kCellFactor = 1.1;
 // With a finite eps below that, the cell is eps enlarged by this factor: a query anywhere in
 // its cell then has its whole eps-ball inside the 3 x 3 x 3 block, despite the margins below.
 constexpr double kEpsCellFactor = 1.0 + 1e-4;
@@ -44,7 +52,7 @@ inline double distance2(double qx, double qy, double qz, double px, double py, d
 }
 
 // How many of d2[0..m) are <= limit. SSE2 where available (the baseline of x86-64).
-std::size_t count_within(const double* d2, std::size_t m, double limit) {
+std::size_t count_within_sse2(const double* d2, std::size_t m, double limit) {
   std::size_t j = 0;
   std::size_t count = 0;
 #if defined(__SSE2__)
@@ -58,6 +66,68 @@ std::size_t count_within(const double* d2, std::size_t m, double limit) {
 #endif
   for (; j < m; ++j) count += d2[j] <= limit ? 1 : 0;
   return count;
+}
+
+// d[j] = |p_j - q|^2 for j < m, from coordinate arrays.
+void distances_plain(const double* px, const double* py, const double* pz, std::size_t m,
+                     double qx, double qy, double qz, double* d) {
+  // p - q rather than q - p: the same squares, and no register copy of q per subtraction.
+  for (std::size_t j = 0; j < m; ++j) d[j] = distance2(px[j], py[j], pz[j], qx, qy, qz);
+}
+
+#if defined(POINTFAIR_KNN_AVX2)
+__attribute__((target("avx2"))) std::size_t count_within_avx2(const double* d2, std::size_t m,
+                                                              double limit) {
+  std::size_t j = 0;
+  const __m256d bound = _mm256_set1_pd(limit);
+  __m256i lanes = _mm256_setzero_si256();
+  for (; j + 4 <= m; j += 4) {
+    const __m256d le = _mm256_cmp_pd(_mm256_loadu_pd(d2 + j), bound, _CMP_LE_OQ);
+    lanes = _mm256_sub_epi64(lanes, _mm256_castpd_si256(le));
+  }
+  alignas(32) std::int64_t sums[4];
+  _mm256_store_si256(reinterpret_cast<__m256i*>(sums), lanes);
+  auto count = static_cast<std::size_t>(sums[0] + sums[1] + sums[2] + sums[3]);
+  for (; j < m; ++j) count += d2[j] <= limit ? 1 : 0;
+  return count;
+}
+
+__attribute__((target("avx2"))) void distances_avx2(const double* px, const double* py,
+                                                    const double* pz, std::size_t m, double qx,
+                                                    double qy, double qz, double* d) {
+  const __m256d vx = _mm256_set1_pd(qx), vy = _mm256_set1_pd(qy), vz = _mm256_set1_pd(qz);
+  std::size_t j = 0;
+  for (; j + 4 <= m; j += 4) {
+    const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(px + j), vx);
+    const __m256d dy = _mm256_sub_pd(_mm256_loadu_pd(py + j), vy);
+    const __m256d dz = _mm256_sub_pd(_mm256_loadu_pd(pz + j), vz);
+    // (dx^2 + dy^2) + dz^2, each rounded: the scalar order.
+    const __m256d s = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
+                                    _mm256_mul_pd(dz, dz));
+    _mm256_storeu_pd(d + j, s);
+  }
+  for (; j < m; ++j) d[j] = distance2(px[j], py[j], pz[j], qx, qy, qz);
+}
+
+bool has_avx2() {
+  static const bool yes = __builtin_cpu_supports("avx2") != 0;
+  return yes;
+}
+#endif
+
+std::size_t count_within(const double* d2, std::size_t m, double limit) {
+#if defined(POINTFAIR_KNN_AVX2)
+  if (has_avx2()) return count_within_avx2(d2, m, limit);
+#endif
+  return count_within_sse2(d2, m, limit);
+}
+
+void distances(const double* px, const double* py, const double* pz, std::size_t m, double qx,
+               double qy, double qz, double* d) {
+#if defined(POINTFAIR_KNN_AVX2)
+  if (has_avx2()) return distances_avx2(px, py, pz, m, qx, qy, qz, d);
+#endif
+  distances_plain(px, py, pz, m, qx, qy, qz, d);
 }
 
 struct Entry {
@@ -83,6 +153,12 @@ class Nearest {
   // Offers the pairs with d2[j] <= limit (<= the bound): a vectorised scan that finds the few
   // of them without a branch per candidate.
   void offer_within(const double* d2, const Index* ids, std::size_t m, double limit) {
+#if defined(POINTFAIR_KNN_AVX2)
+    if (has_avx2()) {
+      offer_within_avx2(d2, ids, m, limit);
+      return;
+    }
+#endif
     std::size_t j = 0;
 #if defined(__SSE2__)
     const __m128d bound = _mm_set1_pd(limit);
@@ -121,6 +197,25 @@ class Nearest {
     e_[p] = {d, id};
     if (count_ == cap_) worst_ = e_[cap_ - 1].d2;
   }
+
+#if defined(POINTFAIR_KNN_AVX2)
+  __attribute__((target("avx2"))) void offer_within_avx2(const double* d2, const Index* ids,
+                                                         std::size_t m, double limit) {
+    const __m256d bound = _mm256_set1_pd(limit);
+    std::size_t j = 0;
+    for (; j + 4 <= m; j += 4) {
+      auto mask = static_cast<unsigned>(
+          _mm256_movemask_pd(_mm256_cmp_pd(_mm256_loadu_pd(d2 + j), bound, _CMP_LE_OQ)));
+      while (mask != 0) {
+        const std::size_t i = j + static_cast<std::size_t>(std::countr_zero(mask));
+        mask &= mask - 1;
+        if (!(d2[i] > worst_)) insert(d2[i], ids[i]);
+      }
+    }
+    for (; j < m; ++j)
+      if (d2[j] <= limit && !(d2[j] > worst_)) insert(d2[j], ids[j]);
+  }
+#endif
 
   int cap_;
   double worst_;
@@ -173,10 +268,11 @@ RobustSpread robust_spread(std::span<const Vec3> points) {
 }
 
 // Median distance to the (want)-th nearest point (the point itself included) of kProbes evenly
-// strided probe points, measured exactly by one pass over every point; the largest of them if
-// the median is 0 (duplicates), 0 if every probe sits on more than `want` duplicates.
-double probe_spacing(std::span<const Vec3> points, std::size_t want) {
+// strided probe points, measured exactly by one pass over every `stride`-th point; the largest of
+// them if the median is 0 (duplicates), 0 if every probe sits on more than `want` duplicates.
+double probe_spacing(std::span<const Vec3> points, std::size_t want, std::size_t stride) {
   const std::size_t n = points.size();
+  const std::size_t samples = (n + stride - 1) / stride;
   double px[kProbes], py[kProbes], pz[kProbes];
   for (std::size_t p = 0; p < kProbes; ++p) {
     const Vec3& q = points[(2 * p + 1) * n / (2 * kProbes)];
@@ -185,16 +281,17 @@ double probe_spacing(std::span<const Vec3> points, std::size_t want) {
     pz[p] = q.z();
   }
   // Each chunk keeps, per probe, a max-heap of the `want` smallest squared distances it saw.
-  const std::size_t chunks = std::min<std::size_t>(64, (n + 16383) / 16384);
+  const std::size_t chunks = std::min<std::size_t>(64, (samples + 16383) / 16384);
   std::vector<double> heaps(chunks * kProbes * want, kInf);
   parallel_for(chunks, [&](std::size_t cb, std::size_t ce) {
     for (std::size_t c = cb; c < ce; ++c) {
       double* heap = heaps.data() + c * kProbes * want;
       double top[kProbes];
       std::fill(top, top + kProbes, kInf);
-      const std::size_t end = (c + 1) * n / chunks;
-      for (std::size_t j = c * n / chunks; j < end; ++j) {
-        const double x = points[j].x(), y = points[j].y(), z = points[j].z();
+      const std::size_t end = (c + 1) * samples / chunks;
+      for (std::size_t sample = c * samples / chunks; sample < end; ++sample) {
+        const Vec3& point = points[sample * stride];
+        const double x = point.x(), y = point.y(), z = point.z();
         double d[kProbes];
         bool any = false;
         for (std::size_t p = 0; p < kProbes; ++p) {
@@ -232,7 +329,11 @@ double choose_cell(std::span<const Vec3> points, std::size_t want, double eps, c
   const std::size_t n = points.size();
   // Small clouds: every query against every point is cheap enough.
   if (n <= 2 * want + 64) return kInf;
-  double cell = kCellFactor * probe_spacing(points, want);
+  // Large clouds: every second point, and half as many of them, measure about the same
+  // distance at half the cost (the cell size only affects speed, never the lists).
+  const bool halve = n >= 8192 && want >= 8;
+  double cell = kCellFactor * (halve ? probe_spacing(points, (want + 1) / 2, 2)
+                                     : probe_spacing(points, want, 1));
   if (!(cell > 0.0)) {
     // The probes all sit on stacks of duplicates: a cell per point on average.
     double extent = 0.0;
@@ -429,12 +530,7 @@ struct Candidates {
   }
 
   void distances(double qx, double qy, double qz) {
-    const double* px = x.data();
-    const double* py = y.data();
-    const double* pz = z.data();
-    double* d = d2.data();
-    // p - q rather than q - p: the same squares, and no register copy of q per subtraction.
-    for (std::size_t j = 0; j < m; ++j) d[j] = distance2(px[j], py[j], pz[j], qx, qy, qz);
+    pointfair::distances(x.data(), y.data(), z.data(), m, qx, qy, qz, d2.data());
   }
 };
 
@@ -623,7 +719,15 @@ class Search {
       if (c < want) {
         if (c == m || !(t < max_d2_)) break;
         below = t;
-        next = above < kInf ? std::sqrt(below * above) : std::max(4.0 * t, floor_d2_);
+        if (above < kInf) {
+          next = std::sqrt(below * above);
+        } else if (c > 0) {
+          // As below: aim at want + slack / 2, growing at most 4-fold.
+          const double ratio = static_cast<double>(want + slack / 2) / static_cast<double>(c);
+          next = std::min(4.0, ratio * std::sqrt(std::sqrt(ratio))) * t;  // ratio^1.25
+        } else {
+          next = std::max(4.0 * t, floor_d2_);
+        }
       } else if (c > want + slack) {
         above = t;
         // Counts grow about like t^(dimension / 2): aim at want + slack / 2.
@@ -641,7 +745,7 @@ class Search {
     nearest.offer_within(d2, block.id.data(), m, t);
 
     if (!within_block(q, cell, ring, nearest) && !extend(s, q, cell, ring, nearest)) return false;
-    if (nearest.full()) s.guess = 1.3 * nearest.last();
+    if (nearest.full()) s.guess = 1.15 * nearest.last();
     write_row(q_.row[e], g_.order[pos], nearest.entries(), nearest.count());
     return true;
   }
@@ -705,11 +809,15 @@ class Search {
   void write_row(std::size_t row, Index self, const Entry* best, int found) const {
     if (!last_d2_.empty()) last_d2_[row] = found > 0 ? best[found - 1].d2 : 0.0;
     Index* dst = out_.indices.data() + row * static_cast<std::size_t>(k_);
-    int count = 0;
-    for (int j = 0; j < found && count < k_; ++j) {
-      if (best[j].id == self) continue;
-      dst[count++] = best[j].id;
-    }
+    // The query itself is among the found points unless more than k duplicates of it have
+    // smaller indices; the list is every other found point, at most k.
+    int self_at = 0;
+    while (self_at < found && best[self_at].id != self) ++self_at;
+    const int before = std::min(self_at, k_);
+    for (int j = 0; j < before; ++j) dst[j] = best[j].id;
+    const int end = std::min(found, k_ + 1);
+    int count = before;
+    for (int j = self_at + 1; j < end; ++j) dst[count++] = best[j].id;
     out_.counts[row] = static_cast<std::uint16_t>(count);
   }
 

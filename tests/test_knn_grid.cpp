@@ -210,6 +210,48 @@ TEST(KnnGrid, AutomaticEpsAndRowPermutationMatchTheTreePath) {
   }
 }
 
+TEST(KnnGrid, ClustersEmptyCellsAndAnisotropicBoxes) {
+  // Tight clusters far apart: most cells of the grid empty, and cells with many more points
+  // than k around them.
+  std::vector<Vec3> clusters;
+  for (int c = 0; c < 6; ++c) {
+    const Vec3 centre(3.0 * c, -2.0 * (c % 2), 1.5 * (c % 3));
+    for (const Vec3& p : test::random_box(300 + 50 * static_cast<std::size_t>(c), -0.01, 0.01, 60 + static_cast<std::uint64_t>(c)))
+      clusters.push_back(centre + p * (1.0 + c));
+  }
+  for (const int k : {2, 16})
+    for (const double eps : {kInf, 0.004, 0.05}) expect_grid_exact(clusters, k, eps, 7, "clusters");
+  // Boxes far longer on one or two axes than on the others: a needle and a flat slab.
+  std::vector<Vec3> needle = test::random_box(3000, 0.0, 1.0, 61);
+  for (Vec3& p : needle) p = Vec3(p.x() * 1000.0, p.y() * 0.01, p.z() * 0.02);
+  std::vector<Vec3> slab = test::random_box(3000, 0.0, 1.0, 62);
+  for (Vec3& p : slab) p = Vec3(p.x() * 50.0, p.y() * 30.0, p.z() * 1e-4);
+  for (const int k : {1, 16}) {
+    expect_grid_exact(needle, k, kInf, 9, "needle");
+    expect_grid_exact(needle, k, 0.5, 9, "needle, eps");
+    expect_grid_exact(slab, k, kInf, 9, "slab");
+    expect_grid_exact(slab, k, 0.6, 9, "slab, eps");
+  }
+}
+
+TEST(KnnGrid, EpsCutsRowsShortAndTiesAtEps) {
+  // Lattice spacing 1 with eps exactly at a neighbour distance and just below it: rows end
+  // precisely at the bound (d^2 <= eps^2), and equal distances keep the smaller index first.
+  const std::vector<Vec3> lattice = test::integer_grid(9, 7);
+  for (const double eps : {0.999999, 1.0, std::sqrt(3.0), 1.5})
+    expect_grid_exact(lattice, 16, eps, 3, "lattice cut");
+  // Duplicated points (pairs and a stack) with an eps that cuts most rows before k.
+  std::vector<Vec3> dup = test::random_box(2000, 0.0, 1.0, 63);
+  for (std::size_t i = 0; i < 2000; i += 2) dup.push_back(dup[i]);
+  for (int i = 0; i < 30; ++i) dup.push_back(dup[5]);
+  for (const double eps : {0.01, 0.03, kInf}) expect_grid_exact(dup, 16, eps, 5, "duplicates cut");
+  const CellGrid grid = build_cell_grid(dup, 16, 0.03);
+  const Neighborhoods nb = grid_neighborhoods(grid, 16, 0.03);
+  std::size_t short_rows = 0;
+  for (const std::uint16_t c : nb.counts) short_rows += c < 16 ? 1 : 0;
+  EXPECT_GT(short_rows, nb.size() / 4) << "eps must really cut rows here";
+}
+
 TEST(KnnGrid, RejectsBadInput) {
   const std::vector<Vec3> points = test::random_box(100, 0.0, 1.0, 2);
   EXPECT_THROW(build_cell_grid(points, 0, kInf), ParamError);

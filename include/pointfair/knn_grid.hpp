@@ -16,8 +16,9 @@
 // left). Comparisons against the block's boundary keep margins far above the rounding of the
 // cell coordinates, so a far offset (UTM-like coordinates) cannot make a list inexact.
 //
-// Cell size: the distance to the k-th nearest point at 16 evenly strided probe points (their
-// median, measured exactly), or eps (slightly enlarged) when that is smaller. Cell keys use 21
+// Cell size: 1.1 times the distance to the k-th nearest point at 16 evenly strided probe points
+// (their median; on large clouds measured among every second point), or eps (slightly
+// enlarged) when that is smaller. It only affects the speed, never the lists. Cell keys use 21
 // bits per axis inside a window centred on the points' median; points outside the window are
 // clamped into the border cells. The grid keeps only occupied cells (at most one per point),
 // so a far outlier neither costs memory nor coarsens the cells of the rest of the cloud.
