@@ -8,6 +8,7 @@
 
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
+#include "pointfair/shrink_compensation.hpp"
 #include "pointfair/spatial_order.hpp"
 
 namespace pointfair {
@@ -19,6 +20,16 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
+bool should_stop(const SmoothParams& params, std::span<const double> lambdas) {
+  if (lambdas.size() < 2) return false;
+  const std::size_t n = lambdas.size() - 1;
+  if (params.stop_lambda_ratio > 0.0 && lambdas[n] <= params.stop_lambda_ratio * lambdas[0]) return true;
+  // A plateau counts once lambda has fallen to 0.3 of the input's: under heavy noise (fandisk
+  // at 1%) it also stalls for a while early on, with most of the noise still there.
+  return params.stop_plateau > 0.0 && n >= 8 && lambdas[n] <= 0.3 * lambdas[0] &&
+         lambdas[n] > (1.0 - params.stop_plateau) * lambdas[n - 4];
+}
+
 void SmoothParams::validate() const {
   neighbors.validate();
   flow.validate();
@@ -27,6 +38,10 @@ void SmoothParams::validate() const {
           "rebuild interval must be >= 0 (0 = never), got " + std::to_string(rebuild_interval));
   require(stop_lambda_ratio >= 0.0 && stop_lambda_ratio < 1.0,
           "stop lambda ratio must be in [0, 1) (0 = off), got " + std::to_string(stop_lambda_ratio));
+  require(stop_plateau >= 0.0 && stop_plateau < 1.0,
+          "stop plateau must be in [0, 1) (0 = off), got " + std::to_string(stop_plateau));
+  require(shrink_compensation >= 0.0 && shrink_compensation <= 1.0,
+          "shrink compensation must be in [0, 1] (0 = off), got " + std::to_string(shrink_compensation));
 }
 
 SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
@@ -74,7 +89,10 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
   report.seconds_neighbors += seconds_since(t0);
 
   std::vector<Vec3> next(positions.size());
-  const double lambda_input = report.lambda;
+  // The flow's own update, when it is compensated (shrink_compensation.hpp).
+  std::vector<Vec3> updated(params.shrink_compensation > 0.0 ? positions.size() : 0);
+  // lambdas[s]: the automatic lambda measured before step s + 1 (SmoothParams::stop_plateau).
+  std::vector<double> lambdas{report.lambda};
   for (int step = 0; step < params.steps; ++step) {
     if (params.rebuild_interval > 0 && step > 0 && step % params.rebuild_interval == 0) {
       t0 = std::chrono::steady_clock::now();
@@ -88,17 +106,22 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
     t0 = std::chrono::steady_clock::now();
     if (params.lambda_every_step && step > 0) {
       report.lambda = measure_lambda();
+      lambdas.push_back(report.lambda);
       // The automatic lambda gauges the noise: stop once it has fallen far enough.
       if (params.flow.flow == Flow::Anisotropic && params.flow.lambda == 0.0 &&
-          params.stop_lambda_ratio > 0.0 &&
-          report.lambda <= params.stop_lambda_ratio * lambda_input) {
+          should_stop(params, lambdas)) {
         report.stopped_early = true;
         report.seconds_steps += seconds_since(t0);
         break;
       }
     }
-    const StepStats stats =
-        euler_step(positions, neighborhoods, {}, params.flow, report.lambda, next);
+    StepStats stats;
+    if (updated.empty()) {
+      stats = euler_step(positions, neighborhoods, {}, params.flow, report.lambda, next);
+    } else {
+      stats = euler_step(positions, neighborhoods, {}, params.flow, report.lambda, updated);
+      compensate_shrinkage(positions, updated, neighborhoods, {}, params.shrink_compensation, next);
+    }
     positions.swap(next);
     report.degenerate = stats.degenerate;
     report.seconds_steps += seconds_since(t0);
@@ -106,6 +129,7 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
     if (options.progress) options.progress(step + 1, params.steps);
   }
   next = std::vector<Vec3>{};
+  updated = std::vector<Vec3>{};
   permute_neighborhoods_in_place(neighborhoods, row_of, order);
   report.neighborhoods = std::move(neighborhoods);
   return report;

@@ -111,6 +111,18 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "the input (the noise is then mostly gone); --steps is the most steps run. 0 = always "
           "run --steps (the paper). Default 0.2.",
           [&s](std::string_view v) { s.stop_lambda_ratio = parse_double(v, "--stop-lambda-ratio"); });
+  p.value("stop-plateau", "D",
+          "Second automatic stop, D in [0, 1) (dimensionless), under the same conditions as "
+          "--stop-lambda-ratio: stop once lambda has fallen by less than the fraction D over the "
+          "last 4 steps (from 8 steps on): on a curved surface lambda falls to the surface's own "
+          "curvature, not to 0. 0 = off. Default 0.",
+          [&s](std::string_view v) { s.stop_plateau = parse_double(v, "--stop-plateau"); });
+  p.value("shrink-compensation", "B",
+          "Shrinkage compensation, B in [0, 1] (dimensionless): subtract B times the mean update "
+          "of a point's neighbours from its own update in every step (B = 1: the bi-Laplacian "
+          "flow), so that curved surfaces do not shrink as the noise goes. 0 = the paper's flow. "
+          "Default 0.",
+          [&s](std::string_view v) { s.shrink_compensation = parse_double(v, "--shrink-compensation"); });
   p.value("lambda-factor", "F", "Multiplier of the automatic lambda (dimensionless). Default 1.",
           [&s](std::string_view v) { s.flow.lambda_auto_factor = parse_double(v, "--lambda-factor"); });
   p.flag("constrain-normal",

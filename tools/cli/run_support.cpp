@@ -111,7 +111,8 @@ JsonObject parameters_json(const SmoothParams& p, double eps, double lambda) {
   j.add("feature_gated", p.flow.feature_gated);
   j.add("weights", to_string(p.flow.weingarten.weights)).add("density_floor", p.flow.weingarten.density_floor);
   j.add("cutoff_origin", p.flow.cutoff_origin == CutoffOrigin::Plane ? "plane" : "point");
-  j.add("stop_lambda_ratio", p.stop_lambda_ratio);
+  j.add("stop_lambda_ratio", p.stop_lambda_ratio).add("stop_plateau", p.stop_plateau);
+  j.add("shrink_compensation", p.shrink_compensation);
   j.add("normal", to_string(p.flow.normal_estimator));
   if (p.flow.normal_estimator == NormalEstimator::Robust)
     j.add("robust_seed", p.flow.robust.seed_neighbors)

@@ -1,0 +1,29 @@
+#include "pointfair/shrink_compensation.hpp"
+
+#include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
+
+namespace pointfair {
+
+void compensate_shrinkage(std::span<const Vec3> current, std::span<const Vec3> updated,
+                          const Neighborhoods& neighborhoods, std::span<const Index> rows,
+                          double beta, std::span<Vec3> next) {
+  const std::size_t n = neighborhoods.size();
+  require(beta >= 0.0 && beta <= 1.0, "shrink compensation must be in [0, 1]");
+  require(current.size() == updated.size(), "compensate_shrinkage: current and updated differ in size");
+  require(rows.empty() || rows.size() == n, "compensate_shrinkage: rows must match the neighbourhoods");
+  require(!rows.empty() || current.size() == n, "compensate_shrinkage: one neighbourhood row per point");
+  require(next.size() == n, "compensate_shrinkage: one output per neighbourhood row");
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t r = begin; r < end; ++r) {
+      const std::size_t i = rows.empty() ? r : rows[r];
+      const std::span<const Index> nb = neighborhoods.of(r);
+      Vec3 mean = Vec3::Zero();
+      for (const Index j : nb) mean += updated[j] - current[j];
+      if (!nb.empty()) mean /= static_cast<double>(nb.size());
+      next[r] = updated[i] - beta * mean;
+    }
+  }, 2048);
+}
+
+}  // namespace pointfair
