@@ -565,13 +565,55 @@ void Dataset::read_selected_raw(std::span<const std::uint64_t> rows, Type memory
   }
   // Runs of consecutive rows become one hyperslab block each: far cheaper than point
   // selections for the clustered rows of a halo.
-  Handle file_space(H5Dget_space(handle_.get()));
-  H5Sselect_none(file_space.get());
   std::size_t i = 0;
   bool sorted = true;
   for (std::size_t j = 1; j < rows.size(); ++j) sorted = sorted && rows[j] > rows[j - 1];
   if (!sorted) fail("read_selected needs strictly increasing rows");
   if (rows.back() >= rows_) fail("rows out of range");
+  std::size_t runs = 1;
+  for (std::size_t j = 1; j < rows.size(); ++j) runs += rows[j] != rows[j - 1] + 1;
+  if (collective || runs <= 32) {
+    read_selection(rows, memory, out, collective);
+    return;
+  }
+  // Many runs (the halo rows of a tile, scattered over its neighbours' rows): libhdf5 reads a
+  // point selection element by element, far slower than copying whole blocks. Rows closer
+  // than kGap to each other form a span, read as one block (at most kPiece rows, through a
+  // buffer of that size) from which the selected rows are picked; spans of fewer than
+  // kDense selected rows go through one point selection together.
+  constexpr std::uint64_t kGap = 512, kPiece = std::uint64_t{1} << 15;
+  constexpr std::size_t kDense = 8;
+  const std::size_t row_bytes = H5Tget_size(memory_type(memory)) * width_;
+  auto* const target = static_cast<unsigned char*>(out);
+  std::vector<unsigned char> block;
+  std::vector<std::uint64_t> sparse;
+  std::vector<std::size_t> sparse_at;
+  for (std::size_t j = 0; i < rows.size(); i = j) {
+    for (j = i + 1; j < rows.size() && rows[j] - rows[j - 1] <= kGap && rows[j] - rows[i] < kPiece;) ++j;
+    if (j - i < kDense) {
+      for (std::size_t r = i; r < j; ++r) {
+        sparse.push_back(rows[r]);
+        sparse_at.push_back(r);
+      }
+      continue;
+    }
+    const std::uint64_t first = rows[i], count = rows[j - 1] - first + 1;
+    block.resize(count * row_bytes);
+    read_rows_raw(first, count, memory, block.data(), Transfer::Independent);
+    for (std::size_t r = i; r < j; ++r)
+      std::memcpy(target + r * row_bytes, block.data() + (rows[r] - first) * row_bytes, row_bytes);
+  }
+  if (sparse.empty()) return;
+  block.resize(sparse.size() * row_bytes);
+  read_selection(sparse, memory, block.data(), false);
+  for (std::size_t r = 0; r < sparse.size(); ++r)
+    std::memcpy(target + sparse_at[r] * row_bytes, block.data() + r * row_bytes, row_bytes);
+}
+
+void Dataset::read_selection(std::span<const std::uint64_t> rows, Type memory, void* out, bool collective) const {
+  Handle file_space(H5Dget_space(handle_.get()));
+  H5Sselect_none(file_space.get());
+  std::size_t i = 0;
   std::size_t runs = 1;
   for (std::size_t j = 1; j < rows.size(); ++j) runs += rows[j] != rows[j - 1] + 1;
   if (runs <= 32) {

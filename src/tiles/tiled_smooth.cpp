@@ -17,6 +17,7 @@
 #include "pointfair/kd_tree.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
+#include "pointfair/spatial_order.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/tiles/balance.hpp"
 #include "pointfair/io/point_file.hpp"
@@ -59,6 +60,9 @@ constexpr double kHaloMargin = 1e-9;
 
 // SmoothOptions::neighbor_reference out of core: the reference's positions in row order.
 constexpr const char* kReferencePositions = "/run/reference_positions";
+// Per row of /run/neighbors/local: which tile row the list belongs to (see TileNeighbors).
+// Absent from runs started by an older version: their lists stay in row order.
+constexpr const char* kLocalOrder = "/run/neighbors/local_order";
 
 std::string positions_buffer(int parity) { return "/run/positions_" + std::to_string(parity); }
 
@@ -100,13 +104,31 @@ struct LocalSet {
   }
 };
 
-// The neighbour lists of one tile in local indices: local index < tile size is row
-// tile_begin + index, else halo_rows[index - tile size].
+// The neighbour lists of one tile in local indices: local index s < tile size is row
+// tile_begin + order[s] (order empty: s itself), else halo_rows[s - tile size]. The order is
+// the Morton order of the tile's points (spatial_order.hpp), as the in-core steps use: a
+// point's neighbours sit near it in memory, which the input's order inside a tile (the
+// import keeps it) does not give. Each list keeps its order, so no bit of a result changes.
 struct TileNeighbors {
   Neighborhoods local;
   std::vector<std::uint64_t> halo_rows;
+  std::vector<Index> order;
   std::uint64_t bytes() const {
-    return tiles::bytes(local.indices) + tiles::bytes(local.counts) + tiles::bytes(halo_rows);
+    return tiles::bytes(local.indices) + tiles::bytes(local.counts) + tiles::bytes(halo_rows) + tiles::bytes(order);
+  }
+  // values[order[s]] = local[s] for the tile's rows (row order from local order).
+  template <class T, class U>
+  void to_rows(const std::vector<T>& local_values, std::vector<U>& values, std::size_t rows) const {
+    if (values.size() < rows) values.resize(rows);
+    parallel_for(rows, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t s = begin; s < end; ++s) values[order.empty() ? s : order[s]] = static_cast<U>(local_values[s]);
+    }, 8192);
+  }
+  // positions[s] = by_row[order[s]] for the tile's rows (local order from row order).
+  void to_local(const std::vector<Vec3>& by_row, std::vector<Vec3>& positions, std::size_t rows) const {
+    parallel_for(rows, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t s = begin; s < end; ++s) positions[s] = by_row[order[s]];
+    }, 8192);
   }
 };
 
@@ -189,9 +211,10 @@ class Run {
   void load_sample_positions(const h5::Dataset& positions);
   TileNeighbors tile_neighbors(std::size_t t) const;
   std::shared_ptr<const TileNeighbors> neighbors_of(std::size_t t);
+  void prepare_lists(OutOfCoreReport& report);
   std::size_t pipeline_slots(std::uint64_t fixed);
   void read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
-                           std::vector<Vec3>& local) const;
+                           std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder = true) const;
   bool run_steps(OutOfCoreReport& report);
   std::size_t write_attributes(double lambda);
   void finish(std::size_t attributes_degenerate, double lambda);
@@ -262,11 +285,13 @@ class Run {
   // in flight is computing with.
   std::vector<std::shared_ptr<const TileNeighbors>> cache_;
   // Per tile: whether /run/neighbors/local holds its lists in local indices (written by this
-  // process), and its halo rows.
+  // process; 2: in Morton order, with kLocalOrder), and its halo rows.
   std::vector<char> local_written_;
   std::vector<std::vector<std::uint64_t>> halo_rows_;
   std::uint64_t halo_bytes_ = 0;
   bool caching_ = true;
+  // Whether the run file has kLocalOrder (tile lists in Morton order, see TileNeighbors).
+  bool local_order_ = false;
   std::uint64_t cache_bytes_ = 0;
   std::uint64_t peak_ = 0;
   std::uint64_t max_working_ = 0;
@@ -406,6 +431,7 @@ void Run::create(const fs::path& partial) {
   f.create_dataset(layout::neighbor_rows, h5::Type::UInt32, n_, static_cast<std::uint64_t>(k()), rows);
   f.create_dataset(layout::neighbor_counts, h5::Type::UInt16, n_, 0, rows);
   f.create_dataset(layout::neighbor_local, h5::Type::UInt32, n_, static_cast<std::uint64_t>(k()), rows);
+  f.create_dataset(kLocalOrder, h5::Type::UInt32, n_, 0, rows);
   f.create_dataset(layout::neighbor_halo_counts, h5::Type::UInt64, std::max<std::uint64_t>(tiles_.size(), 1), 0,
                    early);
   f.create_dataset(positions_buffer(0), h5::Type::Float64, n_, 3, rows);
@@ -884,6 +910,31 @@ TileNeighbors Run::tile_neighbors(std::size_t t) const {
               : static_cast<Index>(rows + static_cast<std::uint64_t>(std::lower_bound(nb.halo_rows.begin(), nb.halo_rows.end(), g) -
                                                                      nb.halo_rows.begin()));
     }
+  if (local_order_ && caching_) {
+    // While the lists are kept in memory (the steps are then fast enough for the order to
+    // matter; the budget is not tight): the tile's points in the Morton order of their input
+    // positions, the halo after them. The input, not the current step's positions: lists built
+    // again after --resume (or on another rank count) must come out in the same order, so
+    // that the run file is the same to the bit however the run was interrupted.
+    std::vector<Vec3> p(rows);
+    file().dataset(layout::positions).read_rows(begin, rows, p.data()->data());
+    nb.order = spatial_order(p);
+    const std::vector<Index> slot_of = inverse_permutation(nb.order);
+    Neighborhoods permuted;
+    permuted.stride = k();
+    permuted.eps = eps_;
+    permuted.counts.resize(rows);
+    permuted.indices.assign(rows * kk, 0);
+    for (std::size_t s = 0; s < rows; ++s) {
+      const std::size_t r = nb.order[s];
+      permuted.counts[s] = nb.local.counts[r];
+      for (std::size_t j = 0; j < permuted.counts[s]; ++j) {
+        const Index i = nb.local.indices[r * kk + j];
+        permuted.indices[s * kk + j] = i < rows ? slot_of[i] : i;
+      }
+    }
+    nb.local = std::move(permuted);
+  }
   return nb;
 }
 
@@ -899,6 +950,12 @@ std::shared_ptr<const TileNeighbors> Run::neighbors_of(std::size_t t) {
     nb->local.counts.resize(rows);
     file().dataset(layout::neighbor_local).read_rows(begin, rows, nb->local.indices.data());
     file().dataset(layout::neighbor_counts).read_rows(begin, rows, nb->local.counts.data());
+    if (local_written_[t] == 2) {
+      nb->order.resize(rows);
+      file().dataset(kLocalOrder).read_rows(begin, rows, nb->order.data());
+      const std::vector<std::uint16_t> by_row = nb->local.counts;
+      for (std::size_t s = 0; s < rows; ++s) nb->local.counts[s] = by_row[nb->order[s]];
+    }
     nb->halo_rows = halo_rows_[t];
     list_rows_read_ += rows;
     return nb;
@@ -906,9 +963,10 @@ std::shared_ptr<const TileNeighbors> Run::neighbors_of(std::size_t t) {
   *nb = tile_neighbors(t);
   list_rows_read_ += rows;
   file().dataset(layout::neighbor_local).write_rows(begin, rows, nb->local.indices.data());
+  if (!nb->order.empty()) file().dataset(kLocalOrder).write_rows(begin, rows, nb->order.data());
   halo_rows_[t] = nb->halo_rows;
   halo_bytes_ += bytes(halo_rows_[t]);
-  local_written_[t] = 1;
+  local_written_[t] = nb->order.empty() ? 1 : 2;
   if (caching_) {
     // Keep the lists while they fit next to everything else, with room for the tiles in
     // flight (twice the largest working set seen so far, at least the estimate of the slots).
@@ -928,11 +986,34 @@ std::shared_ptr<const TileNeighbors> Run::neighbors_of(std::size_t t) {
   return nb;
 }
 
+void Run::prepare_lists(OutOfCoreReport& report) {
+  // The lists of every tile in tile-local indices and Morton order (kept in memory while they
+  // fit, else in /run/neighbors/local), before the steps: this is part of building them, as
+  // the in-core run reorders its lists before its steps. Temporal blocks read the lists in
+  // container rows instead.
+  if (options_.temporal_block > 1) return;
+  const auto t0 = Clock::now();
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    if (tiles_.rows(t) == 0 || local_written_[t]) continue;
+    const std::shared_ptr<const TileNeighbors> nb = neighbors_of(t);
+    account(caching_ && cache_[t] == nb ? 0 : nb->bytes());
+  }
+  report.seconds_neighbors += seconds_since(t0);
+}
+
 void Run::read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
-                              std::vector<Vec3>& local) const {
+                              std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder) const {
   const std::uint64_t rows = tiles_.rows(t);
   local.resize(rows + nb.halo_rows.size());
-  source.read_rows(tiles_.offsets[t], rows, local.data()->data());
+  if (nb.order.empty()) {
+    source.read_rows(tiles_.offsets[t], rows, local.data()->data());
+  } else {
+    // The tile's rows into `scratch`, in row order; into `local` by nb.to_local (here when
+    // `reorder`, else by the caller).
+    scratch.resize(rows);
+    source.read_rows(tiles_.offsets[t], rows, scratch.data()->data());
+    if (reorder) nb.to_local(scratch, local, rows);
+  }
   if (!nb.halo_rows.empty()) source.read_selected(nb.halo_rows, local[rows].data());
 }
 
@@ -1037,16 +1118,18 @@ std::size_t Run::pipeline_slots(std::uint64_t fixed) {
   std::vector<std::uint64_t> halo;
   if (file().exists(layout::neighbor_halo_counts))
     halo = file().dataset(layout::neighbor_halo_counts).read_all<std::uint64_t>();
-  const std::uint64_t per_row = 2 * sizeof(Vec3) + static_cast<std::uint64_t>(k()) * sizeof(Index) + sizeof(std::uint16_t);
+  const std::uint64_t per_row =
+      2 * sizeof(Vec3) + static_cast<std::uint64_t>(k() + 1) * sizeof(Index) + sizeof(std::uint16_t);
   slot_estimate_ = 0;
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t rows = tiles_.rows(t), h = t < halo.size() ? halo[t] : rows;
     slot_estimate_ = std::max(slot_estimate_, rows * per_row + h * (sizeof(Vec3) + sizeof(std::uint64_t)));
   }
-  // As many slots as asked for, as long as they fit next to what the run keeps.
+  // As many slots as asked for, as long as they fit next to what the run keeps (with half an
+  // estimate of margin: a slot's vectors keep the capacity of the largest tile it held).
   const std::uint64_t base = persistent_bytes() + fixed;
   const std::uint64_t fit = options_.memory_budget > base
-                                ? (options_.memory_budget - base) / std::max<std::uint64_t>(slot_estimate_, 1)
+                                ? (options_.memory_budget - base) / std::max<std::uint64_t>(slot_estimate_ + slot_estimate_ / 2, 1)
                                 : 1;
   slots_ = std::clamp<std::uint64_t>(fit, 1, static_cast<std::uint64_t>(std::max(1, options_.tiles_in_flight)));
   return static_cast<std::size_t>(slots_);
@@ -1076,6 +1159,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
   cache_.assign(tiles_.size(), {});
   local_written_.assign(tiles_.size(), 0);
   halo_rows_.assign(tiles_.size(), {});
+  local_order_ = file().exists(kLocalOrder);
   std::vector<Index> identity(max_tile_rows_);
   std::iota(identity.begin(), identity.end(), Index{0});
   h5::Dataset log = file().dataset(layout::run_step_log);
@@ -1094,13 +1178,19 @@ bool Run::run_steps(OutOfCoreReport& report) {
   struct Slot {
     std::size_t tile = 0;
     std::shared_ptr<const TileNeighbors> nb;
+    // With lists in Morton order (TileNeighbors::order), the tile's rows are read into `next`
+    // (row order) and moved into `local`; the step writes `next`, moved back into the first
+    // rows of `local` in row order.
     std::vector<Vec3> local, next;
     StepStats stats;
+    const std::vector<Vec3>& result() const { return nb->order.empty() ? next : local; }
   };
   std::vector<std::size_t> work;
   for (std::size_t t = first_tile_; t < end_tile_; ++t)
     if (tiles_.rows(t) > 0) work.push_back(t);
   const std::size_t slot_count = pipeline_slots(bytes(identity));
+  // After the slots are sized: the lists are cached only next to room for the tiles in flight.
+  prepare_lists(report);
   std::vector<Slot> slots(slot_count);
   const auto slots_bytes = [&] {
     std::uint64_t total = bytes(identity);
@@ -1122,6 +1212,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     auto t0 = Clock::now();
     if (rebuild_due(step) && state_[kNeighborsStep] != step) {
       rebuild_neighbors(step);
+      prepare_lists(report);
       ++report.rebuilds;
       if (auto_lambda_on() && !every_step) {
         lambda = sample_lambda();
@@ -1162,7 +1253,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       Slot& s = slots[slot];
       s.tile = work[item];
       s.nb = neighbors_of(s.tile);
-      read_tile_positions(s.tile, *s.nb, source, s.local);
+      read_tile_positions(s.tile, *s.nb, source, s.local, s.next, false);
       rows_read_ += s.local.size();
       s.next.resize(tiles_.rows(s.tile));
       largest_local_ = std::max<std::uint64_t>(largest_local_, s.local.size());
@@ -1170,18 +1261,21 @@ bool Run::run_steps(OutOfCoreReport& report) {
     };
     stages.compute = [&](std::size_t slot) {
       Slot& s = slots[slot];
+      if (!s.nb->order.empty()) s.nb->to_local(s.next, s.local, s.next.size());
       s.stats = euler_step(s.local, s.nb->local, std::span<const Index>(identity.data(), s.next.size()),
                            params_.flow, lambda, s.next);
+      if (!s.nb->order.empty()) s.nb->to_rows(s.next, s.local, s.next.size());
     };
     stages.write = [&](std::size_t, std::size_t slot) {
       Slot& s = slots[slot];
       const std::uint64_t begin = tiles_.offsets[s.tile], rows = tiles_.rows(s.tile);
       degenerate += s.stats.degenerate;
-      target.write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
+      const std::vector<Vec3>& result = s.result();
+      target.write_rows(begin, rows, result.data()->data(), h5::Transfer::Collective);
       if (every_step) {
         auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
         for (; it != gather_rows_.end() && *it < begin + rows; ++it)
-          gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = s.next[*it - begin];
+          gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = result[*it - begin];
       }
       s.nb.reset();  // lists that are not cached are freed with their tile
     };
@@ -1263,7 +1357,7 @@ std::size_t Run::write_attributes(double lambda) {
     const std::shared_ptr<const TileNeighbors> lists = neighbors_of(t);
     const TileNeighbors& nb = *lists;
     const bool cached = caching_ && cache_[t] == lists;
-    read_tile_positions(t, nb, source, local);
+    read_tile_positions(t, nb, source, local, vn);  // vn: the rows in row order, until it is written below
     // compute_attributes itself on the tile: the halo rows get no neighbours (they are
     // evaluated elsewhere), and two extra points at the corners of the whole cloud's bounding
     // box make its centre, which orients the normals, the in-core one.
@@ -1278,15 +1372,15 @@ std::size_t Run::write_attributes(double lambda) {
     extended.counts.resize(local.size(), 0);
     const PointAttributes pa = compute_attributes(local, extended, params_.flow, lambda);
     degenerate += pa.degenerate - extra;
-    vn.assign(pa.normal.begin(), pa.normal.begin() + static_cast<std::ptrdiff_t>(rows));
-    vd1.assign(pa.d1.begin(), pa.d1.begin() + static_cast<std::ptrdiff_t>(rows));
-    vd2.assign(pa.d2.begin(), pa.d2.begin() + static_cast<std::ptrdiff_t>(rows));
-    vk1.assign(pa.k1.begin(), pa.k1.begin() + static_cast<std::ptrdiff_t>(rows));
-    vk2.assign(pa.k2.begin(), pa.k2.begin() + static_cast<std::ptrdiff_t>(rows));
-    vmean.assign(pa.mean_curvature.begin(), pa.mean_curvature.begin() + static_cast<std::ptrdiff_t>(rows));
-    vlap.assign(pa.laplacian_norm.begin(), pa.laplacian_norm.begin() + static_cast<std::ptrdiff_t>(rows));
-    vfeature.resize(rows);
-    for (std::size_t i = 0; i < rows; ++i) vfeature[i] = static_cast<std::uint8_t>(pa.feature[i]);
+    // Back from the lists' order to row order.
+    nb.to_rows(pa.normal, vn, rows);
+    nb.to_rows(pa.d1, vd1, rows);
+    nb.to_rows(pa.d2, vd2, rows);
+    nb.to_rows(pa.k1, vk1, rows);
+    nb.to_rows(pa.k2, vk2, rows);
+    nb.to_rows(pa.mean_curvature, vmean, rows);
+    nb.to_rows(pa.laplacian_norm, vlap, rows);
+    nb.to_rows(pa.feature, vfeature, rows);
     normal.write_rows(begin, rows, vn.data()->data(), together);
     d1.write_rows(begin, rows, vd1.data()->data(), together);
     d2.write_rows(begin, rows, vd2.data()->data(), together);

@@ -62,6 +62,29 @@ TEST_F(Hdf5FileTest, RowsAndSelectionsRoundTrip) {
   EXPECT_FALSE(f.exists("/g/nope/deeper"));
 }
 
+TEST_F(Hdf5FileTest, ManyScatteredRowsReadAsBlocksAndPoints) {
+  // Rows with many runs are read as dense spans (split at a bounded block size) plus one point
+  // selection for the isolated rows and small clusters: every row lands at its place, in the
+  // memory type asked for.
+  const auto file = path("scattered.h5");
+  constexpr std::uint64_t n = 40000;
+  {
+    h5::File f = h5::File::create(file);
+    std::vector<std::uint16_t> v(n);
+    for (std::uint64_t i = 0; i < n; ++i) v[i] = static_cast<std::uint16_t>(i % 65521);
+    f.create_dataset("/u16", h5::Type::UInt16, n, 0, {.chunk_rows = 4096}).write_rows(0, n, v.data());
+  }
+  const h5::File f = h5::File::open(file, false);
+  std::vector<std::uint64_t> rows;
+  for (std::uint64_t i = 0; i < 36000; i += 2) rows.push_back(i);            // longer than one block
+  for (std::uint64_t i = 36500; i < 38500; i += 600) rows.push_back(i);      // isolated rows
+  for (std::uint64_t i = 38500; i < 38505; ++i) rows.push_back(i);           // a small cluster
+  rows.push_back(n - 1);
+  std::vector<std::uint32_t> got(rows.size(), 0);
+  f.dataset("/u16").read_selected(rows, got.data());
+  for (std::size_t i = 0; i < rows.size(); ++i) ASSERT_EQ(got[i], rows[i] % 65521) << "row " << rows[i];
+}
+
 TEST_F(Hdf5FileTest, ErrorsNameFileAndObject) {
   const auto file = path("b.h5");
   { h5::File::create(file).create_dataset("/x", h5::Type::Float64, 4, 0); }

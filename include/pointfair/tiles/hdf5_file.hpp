@@ -134,6 +134,8 @@ class Dataset {
   void read_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, void* out, Transfer transfer) const;
   void write_rows_raw(std::uint64_t first, std::uint64_t count, Type memory, const void* data, Transfer transfer);
   void read_selected_raw(std::span<const std::uint64_t> rows, Type memory, void* out, Transfer transfer) const;
+  // One H5Dread of the rows through a hyperslab union or a point selection.
+  void read_selection(std::span<const std::uint64_t> rows, Type memory, void* out, bool collective) const;
   bool together(Transfer transfer) const;
   [[noreturn]] void fail(std::string_view problem) const;
 

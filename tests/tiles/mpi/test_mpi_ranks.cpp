@@ -70,7 +70,7 @@ class MpiRunTest : public test::TempDirTest {
   void expect_same_run(const std::string& a, const std::string& b) {
     const h5::File fa = h5::File::open(path(a), false), fb = h5::File::open(path(b), false);
     std::vector<std::string> datasets = {"/run/positions_0",       "/run/positions_1",  "/run/neighbors/rows",
-                                         "/run/neighbors/counts",  "/run/neighbors/local",
+                                         "/run/neighbors/counts",  "/run/neighbors/local", "/run/neighbors/local_order",
                                          "/run/neighbors/halo_counts", "/run/step_log", "/run/eps", "/run/state"};
     for (const std::string& m : fa.members("/run/attributes")) datasets.push_back("/run/attributes/" + m);
     EXPECT_EQ(fa.members("/run/attributes"), fb.members("/run/attributes"));
