@@ -9,6 +9,11 @@
 //   pointfair_throughput [--points N] [--steps S] [--k K] [--repeats R] [--json FILE]
 //                        [--sizes N1,N2,...] [--no-memory] [--no-cgal]
 //                        [--neighbors-only [--kd-tree]]
+//                        [--no-out-of-core] [--ooc-budget MIB] [--ooc-tile-points N] [--ooc-temporal-block H]
+//
+// Out of core (out_of_core_rate.hpp): the cloud imported into a container in a temporary
+// directory, iso and aniso steps run on it with a memory budget (default 256 MiB, the CLI's)
+// for 1..all threads, each paired with an in-core run and reported as a ratio to it.
 //
 // --neighbors-only times the neighbourhood build alone (the path build_neighborhoods takes;
 // with --kd-tree the same lists through one k-d tree query per point, the old path) for
@@ -30,6 +35,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -44,6 +50,8 @@
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "pointfair/version.hpp"
+
+#include "out_of_core_rate.hpp"
 
 #if defined(POINTFAIR_HAVE_CGAL)
 #include "quality/cgal_peers.hpp"
@@ -170,6 +178,8 @@ int main(int argc, char** argv) {
   std::string json_path;
   std::vector<std::size_t> sizes;
   bool memory = true, cgal = true, neighbors_only = false, kd_tree = false;
+  bool out_of_core = true;
+  bench::OutOfCoreRateOptions ooc;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
@@ -177,6 +187,10 @@ int main(int argc, char** argv) {
     else if (a == "--no-cgal") cgal = false;
     else if (a == "--neighbors-only") neighbors_only = true;
     else if (a == "--kd-tree") kd_tree = true;
+    else if (a == "--no-out-of-core") out_of_core = false;
+    else if (a == "--ooc-budget" && has_value) ooc.memory_budget = std::strtoull(argv[++i], nullptr, 10) << 20;
+    else if (a == "--ooc-tile-points" && has_value) ooc.tile_points = std::strtoull(argv[++i], nullptr, 10);
+    else if (a == "--ooc-temporal-block" && has_value) ooc.temporal_block = std::atoi(argv[++i]);
     else if (a == "--points" && has_value) points = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--steps" && has_value) steps = std::atoi(argv[++i]);
     else if (a == "--k" && has_value) k = std::atoi(argv[++i]);
@@ -186,7 +200,8 @@ int main(int argc, char** argv) {
     else {
       std::fprintf(stderr,
                    "usage: %s [--points N] [--steps S] [--k K] [--repeats R] [--json FILE] "
-                   "[--sizes N1,N2,...] [--no-memory] [--no-cgal] [--neighbors-only [--kd-tree]]\n",
+                   "[--sizes N1,N2,...] [--no-memory] [--no-cgal] [--neighbors-only [--kd-tree]]\n"
+                   "       [--no-out-of-core] [--ooc-budget MIB] [--ooc-tile-points N] [--ooc-temporal-block H]\n",
                    argv[0]);
       return 2;
     }
@@ -266,6 +281,10 @@ int main(int argc, char** argv) {
     }
   }
   set_thread_count(0);
+  std::optional<bench::OutOfCoreSection> ooc_section;
+  if (out_of_core)
+    ooc_section = bench::measure_out_of_core(cloud, k, cores, repeats,
+                                             [&](Flow flow) { return step_params(flow, k, steps); }, ooc);
   double aniso_all = 0.0;
   for (const Row& row : rows)
     if (row.flow == "aniso" && row.threads == cores) aniso_all = row.rate;
@@ -323,6 +342,7 @@ int main(int argc, char** argv) {
     }
     std::printf("  %-5s speed-up %d vs 1 thread: %.2fx\n", flow, cores, one > 0 ? all / one : 0.0);
   }
+  if (ooc_section) bench::print_out_of_core(*ooc_section);
   std::printf("  full default run: %d steps%s, %.2f s\n", full.steps,
               full.stopped_early ? " (automatic stop)" : "", full_seconds);
   if (memory) {
@@ -364,7 +384,9 @@ int main(int argc, char** argv) {
     json += std::string(i ? ", " : "") + "{\"name\": \"" + peers[i].name + "\", \"points_per_second\": " +
             number(peers[i].points_per_second) + ", \"aniso_ratio\": " +
             number(aniso_all / peers[i].points_per_second) + "}";
-  json += "]}";
+  json += "]";
+  if (ooc_section) json += ", " + bench::out_of_core_json(*ooc_section);
+  json += "}";
   if (!json_path.empty()) std::ofstream(json_path) << json << "\n";
   std::printf("\n%s\n", json.c_str());
   return 0;

@@ -1,0 +1,94 @@
+#pragma once
+// The out-of-core half of the throughput tool: a cloud imported into a container in a
+// temporary directory (the path of `pointfair import IN OUT.h5 --memory-budget SIZE`), then
+// steps run out of core on it (smooth_out_of_core, as `pointfair smooth IN.h5 OUT.h5
+// --memory-budget SIZE`), timed like the in-core steps: the steps only, from the run's report.
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "pointfair/smooth.hpp"
+
+namespace pointfair::bench {
+
+struct OutOfCoreRateOptions {
+  /// The run's memory budget (OutOfCoreOptions::memory_budget), bytes.
+  std::uint64_t memory_budget = std::uint64_t{256} << 20;
+  /// Most points per tile of the import; 0: the rule `pointfair import --memory-budget` uses.
+  std::uint64_t tile_points = 0;
+  /// Steps per load of a tile (OutOfCoreOptions::temporal_block).
+  int temporal_block = 1;
+};
+
+struct OutOfCoreRate {
+  double point_steps_per_second = 0.0;
+  double seconds_steps = 0.0;
+  int steps = 0;
+  std::size_t tiles = 0;
+  /// Whether the neighbour lists stayed in memory across steps, and the tiles in flight.
+  bool neighbors_cached = false;
+  int tiles_in_flight = 0;
+  /// The run's final positions equal smooth()'s on the same cloud to the bit (when checked).
+  bool checked = false;
+  bool identical = false;
+};
+
+/// One row of the tool's out-of-core table: a flow and thread count, out of core and in core
+/// back to back (medians over the repeats, and the median of the paired ratios: the machine's
+/// load changes less within a pair than over the whole run).
+struct OutOfCoreRow {
+  std::string flow;  // "iso" or "aniso"
+  int threads = 1;
+  double in_core = 0.0;      // point-steps/s
+  double out_of_core = 0.0;  // point-steps/s
+  double ratio = 0.0;        // out of core / in core
+  bool identical = false;    // the out-of-core result equals the in-core one to the bit
+};
+
+struct OutOfCoreSection {
+  OutOfCoreRateOptions options;
+  std::uint64_t tile_points = 0;
+  std::size_t tiles = 0;
+  bool neighbors_cached = false;
+  int tiles_in_flight = 0;
+  std::vector<OutOfCoreRow> rows;
+};
+
+/// Imports `cloud` and measures iso and aniso steps (`params_for(flow)`) out of core and in
+/// core for 1..`cores` threads, `repeats` pairs each.
+OutOfCoreSection measure_out_of_core(const std::vector<Vec3>& cloud, int k, int cores, int repeats,
+                                     const std::function<SmoothParams(Flow)>& params_for,
+                                     const OutOfCoreRateOptions& options);
+/// The section as lines of the tool's table, and as a JSON member ("out_of_core": {...}).
+void print_out_of_core(const OutOfCoreSection& section);
+std::string out_of_core_json(const OutOfCoreSection& section);
+
+/// Most points per tile `pointfair import --memory-budget` picks for `budget` and k.
+std::uint64_t tile_points_for_budget(std::uint64_t budget, int k);
+
+/// A generated cloud imported once into a container in a fresh temporary directory, removed
+/// with the object.
+class OutOfCoreBench {
+ public:
+  OutOfCoreBench(const std::vector<Vec3>& cloud, int k, const OutOfCoreRateOptions& options);
+  ~OutOfCoreBench();
+  OutOfCoreBench(const OutOfCoreBench&) = delete;
+  OutOfCoreBench& operator=(const OutOfCoreBench&) = delete;
+
+  /// Runs `params` out of core on the container (the output is removed afterwards). With
+  /// `expected` non-empty (smooth()'s positions for the same params), compares the result.
+  OutOfCoreRate run(const SmoothParams& params, const std::vector<Vec3>& expected = {}) const;
+
+  std::uint64_t tile_points() const { return tile_points_; }
+  std::size_t tiles() const { return tiles_; }
+
+ private:
+  std::filesystem::path dir_, container_;
+  OutOfCoreRateOptions options_;
+  std::uint64_t tile_points_ = 0;
+  std::size_t tiles_ = 0;
+};
+
+}  // namespace pointfair::bench
