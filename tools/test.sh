@@ -8,15 +8,23 @@
 #              -O1), but for the repeat of the core tests against the OpenMP back end
 #   tsan       ThreadSanitizer over the parallel kernels and the tile pipeline: the core with
 #              the std::thread back end (TBB's and libgomp's own internals are not instrumented
-#              in Debian's builds)
-#   fuzz       libFuzzer (clang): each reader's fuzzer for POINTFAIR_FUZZ_SECONDS (default 20)
+#              in Debian's builds); only their tests' files are built (pointfair_threading_tests)
+#   fuzz       libFuzzer (clang): each reader's fuzzer for POINTFAIR_FUZZ_SECONDS (default 10)
 #              over the committed seeds, and every committed regression input once
 # POINTFAIR_HARDENING=0 skips asan, tsan and fuzz; POINTFAIR_MPI_STAGE=0 skips mpi.
+# POINTFAIR_FULL_HARDENING=1 is the longer run (before a release; not every push): every
+# build without precompiled headers (so a missing #include shows), the whole of
+# pointfair_core_tests under ThreadSanitizer too, and 60 s per fuzzer unless
+# POINTFAIR_FUZZ_SECONDS says otherwise.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh
 build=${POINTFAIR_BUILD_DIR:-build}
 jobs=$(nproc)
+full=${POINTFAIR_FULL_HARDENING:-0}
+no_pch=OFF
+[ "$full" = 1 ] && no_pch=ON
+config=(-DCMAKE_DISABLE_PRECOMPILE_HEADERS="$no_pch")
 started=$SECONDS
 stage_start=$SECONDS
 stage() {
@@ -28,7 +36,7 @@ stage() {
 }
 
 stage main
-cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPOINTFAIR_WERROR=ON >/dev/null
+cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPOINTFAIR_WERROR=ON "${config[@]}" >/dev/null
 cmake --build "$build" -j"$jobs"
 ctest --test-dir "$build" --output-on-failure -j"$jobs" --timeout 600
 
@@ -36,7 +44,7 @@ if [ "${POINTFAIR_MPI_STAGE:-1}" != 0 ]; then
   stage mpi
   mpi="$build-mpi"
   cmake -S . -B "$mpi" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPOINTFAIR_WERROR=ON \
-    -DPOINTFAIR_MPI=ON -DPOINTFAIR_BUILD_BENCH=OFF >/dev/null
+    -DPOINTFAIR_MPI=ON -DPOINTFAIR_BUILD_BENCH=OFF "${config[@]}" >/dev/null
   cmake --build "$mpi" -j"$jobs" --target pointfair_mpi pointfair_mpi_tests
   shellcheck tools/slurm/pipeline.sh tools/slurm/smooth.sbatch tests/tiles/mpi/slurm_pipeline_test.sh
   OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
@@ -50,7 +58,8 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
   asan="$build-asan"
   cmake -S . -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Release \
     -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DCMAKE_C_FLAGS_RELEASE="-O1 -DNDEBUG" \
-    -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_TEST_OPENMP=OFF -DPOINTFAIR_SANITIZE=address,undefined >/dev/null
+    -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_TEST_OPENMP=OFF -DPOINTFAIR_SANITIZE=address,undefined \
+    "${config[@]}" >/dev/null
   cmake --build "$asan" -j"$jobs"
   ASAN_OPTIONS=abort_on_error=1:detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     LSAN_OPTIONS=suppressions="$PWD/tests/sanitizers/lsan.supp":print_suppressions=0 \
@@ -60,10 +69,14 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
   tsan="$build-tsan"
   cmake -S . -B "$tsan" -G Ninja -DCMAKE_BUILD_TYPE=Release \
     -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DCMAKE_C_FLAGS_RELEASE="-O1 -DNDEBUG" \
-    -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_PARALLEL=Threads -DPOINTFAIR_SANITIZE=thread >/dev/null
-  cmake --build "$tsan" -j"$jobs" --target pointfair_core_tests pointfair_pipeline_tests
+    -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_PARALLEL=Threads -DPOINTFAIR_SANITIZE=thread "${config[@]}" >/dev/null
+  cmake --build "$tsan" -j"$jobs" --target pointfair_threading_tests pointfair_pipeline_tests
   TSAN_OPTIONS=halt_on_error=1 ctest --test-dir "$tsan" --output-on-failure -j"$jobs" --timeout 600 \
-    -R '^(Parallel|Neighbo[a-z]*|SpatialOrder|EulerStep|Pipeline)\.'
+    -R '^(Threading\.(Parallel|Neighbo[a-z]*|SpatialOrder|EulerStep)|Pipeline)\.'
+  if [ "$full" = 1 ]; then
+    cmake --build "$tsan" -j"$jobs" --target pointfair_core_tests
+    TSAN_OPTIONS=halt_on_error=1 "$tsan/tests/pointfair_core_tests"
+  fi
 
   stage fuzz
   probe=$(mktemp -d)
@@ -75,7 +88,8 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
     cmake -S . -B "$fuzz" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Release \
       -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" \
       -DPOINTFAIR_WERROR=ON -DPOINTFAIR_BUILD_TESTS=OFF -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_FUZZ=ON \
-      -DPOINTFAIR_FUZZ_SECONDS="${POINTFAIR_FUZZ_SECONDS:-20}" >/dev/null
+      -DPOINTFAIR_FUZZ_SECONDS="${POINTFAIR_FUZZ_SECONDS:-$([ "$full" = 1 ] && echo 60 || echo 10)}" \
+      "${config[@]}" >/dev/null
     cmake --build "$fuzz" -j"$jobs" --target pointfair_fuzz_ply pointfair_fuzz_xyz pointfair_fuzz_las pointfair_fuzz_container
     ctest --test-dir "$fuzz" --output-on-failure -j"$jobs" --timeout 600
   else

@@ -201,8 +201,9 @@ TEST_F(HostileEnvironment, OutputThatIsTheInputUnderAnotherNameIsRefused) {
 }
 
 TEST_F(HostileEnvironment, FullDiskWhileWritingLeavesNoOutput) {
-  // The output of 20,000 points with attributes is ~1.6 MB; the limit allows 64 KiB per file.
-  const fs::path in = write_cloud("in.ply", 20000);
+  // The output of 5,000 points is over 150 KB (~400 KB with attributes); the limit allows
+  // 64 KiB per file.
+  const fs::path in = write_cloud("in.ply", 5000);
   const std::string before = slurp(in);
   for (const std::string out : {"out.ply", "out.xyz", "out.csv"}) {
     for (const std::string command : {"smooth", "curvature"}) {
@@ -316,7 +317,7 @@ TEST_F(HostileEnvironment, SigintDuringAnOutOfCoreRunKeepsAResumableFile) {
   const fs::path scan = dir_ / "scan.h5";
   ASSERT_EQ(run({"import", in.string(), scan.string(), "--tile-points", "500", "--quiet"}).exit_code, 0);
   const std::string scan_before = slurp(scan);
-  const std::vector<std::string> method = {"--steps", "400", "--quiet"};
+  const std::vector<std::string> method = {"--steps", "150", "--quiet"};
   auto with = [&](std::vector<std::string> head, const std::vector<std::string>& tail) {
     head.insert(head.end(), tail.begin(), tail.end());
     return head;

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -92,7 +93,7 @@ std::string descriptor(std::string_view name, std::uint8_t type, std::uint8_t op
   std::string d(192, '\0');
   d[2] = static_cast<char>(type);
   d[3] = static_cast<char>(options);
-  d.replace(4, name.size(), name);
+  std::copy(name.begin(), name.end(), d.begin() + 4);
   return d;
 }
 

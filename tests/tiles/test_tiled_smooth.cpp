@@ -46,7 +46,7 @@ struct Case {
 };
 
 TEST_F(TiledSmoothTest, BitIdenticalToInCoreForAnyTiling) {
-  const io::PointTable cloud = test::noisy_cube(6000, 11);
+  const io::PointTable cloud = test::noisy_cube(3000, 11);
   const double inf = std::numeric_limits<double>::infinity();
   const Case cases[] = {
       {"one tile", {.max_tile_points = 1u << 20}, 0.0, 0.0, true},
