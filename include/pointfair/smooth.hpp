@@ -54,13 +54,15 @@ struct SmoothParams {
   /// lambda_n > (1 - stop_plateau) lambda_{n-4} and lambda_n <= 0.3 lambda_0. On a curved surface the median |kappa_ij|
   /// falls to the surface's own curvature, not to 0 (the bunny's clean samples score 0.12 of
   /// its noisy input at 0.1% noise): once it stops falling the noise is gone. 0.03 measured
-  /// best with the compensated flow (README, Quality).
+  /// best with the compensated flow (README, Quality). The out-of-core smoother stops at the
+  /// same step, also after --resume (it reads the earlier lambdas from its step log).
   double stop_plateau = 0.0;
   /// Shrinkage compensation beta in [0, 1] (0 = off, the paper): every step subtracts beta
   /// times the mean update of a point's neighbours from its own update
   /// (shrink_compensation.hpp), so that the flow removes noise without shrinking curved
   /// surfaces. 1 measured best: sphere (20K points, 1% noise) RMS 1.94e-3 vs 2.54e-3
   /// uncompensated, fandisk at 0.5% noise 1.140e-3 / 23.0° vs 1.446e-3 / 26.7° (README).
+  /// Out of core each tile then comes with the 2-ring closure of its lists (tiled_smooth.hpp).
   double shrink_compensation = 0.0;
 
   void validate() const;

@@ -17,6 +17,7 @@
 #include "pointfair/kd_tree.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
+#include "pointfair/shrink_compensation.hpp"
 #include "pointfair/spatial_order.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/tiles/balance.hpp"
@@ -84,6 +85,9 @@ std::string parameters_key(const SmoothParams& p) {
     << " stop_lambda_ratio=" << p.stop_lambda_ratio
     << " normal=" << static_cast<int>(p.flow.normal_estimator) << " robust_seed=" << p.flow.robust.seed_neighbors
     << " robust_iterations=" << p.flow.robust.iterations << " robust_bound=" << p.flow.robust.inlier_bound;
+  // Named only when on, so that runs started before these options existed still resume.
+  if (p.stop_plateau != 0.0) s << " stop_plateau=" << p.stop_plateau;
+  if (p.shrink_compensation != 0.0) s << " shrink_compensation=" << p.shrink_compensation;
   return s.str();
 }
 
@@ -134,14 +138,18 @@ struct TileNeighbors {
 
 // One tile in flight of a temporal block of h steps: its points (levels 0) and the rings of
 // its neighbour-list closure (level l + 1: the neighbours of levels <= l not already in them),
-// h levels deep, in local indices ordered by level. Step j of the block moves the points of
+// d = h levels deep, in local indices ordered by level. Step j of the block moves the points of
 // levels 0 .. h - j, each from the positions of step j - 1 of its neighbours (one level
 // further out at most), so after h steps the tile's points hold exactly the in-core step.
+// A compensated step (SmoothParams::shrink_compensation) needs the plain updates of a point's
+// neighbours, which need their own neighbours: two rings a step, d = 2 h levels. Step j then
+// takes the plain update of levels 0 .. d - 2 j + 1 and compensates levels 0 .. d - 2 j.
 struct BlockSlot {
   std::size_t tile = 0;
   std::vector<std::size_t> level_end;      // end of level l in local indices, l = 0 .. h
   std::vector<Neighborhoods> lists;        // lists of levels 0 .. h - 1, local indices
   std::vector<Vec3> cur, next;
+  std::vector<Vec3> updated;               // plain updates of a compensated step
   std::vector<Index> ids;                  // 0, 1, 2, ...
   std::vector<std::size_t> degenerate;     // per step of the block, the tile's own points
   std::vector<std::uint64_t> rows;         // container row of each local point
@@ -152,24 +160,39 @@ struct BlockSlot {
   std::vector<Vec3> scratch;
 
   std::uint64_t bytes() const {
-    std::uint64_t b = tiles::bytes(level_end) + tiles::bytes(cur) + tiles::bytes(next) + tiles::bytes(ids) +
+    std::uint64_t b = tiles::bytes(level_end) + tiles::bytes(cur) + tiles::bytes(next) + tiles::bytes(updated) +
+                      tiles::bytes(ids) +
                       tiles::bytes(degenerate) + tiles::bytes(rows) + tiles::bytes(sorted_rows) +
                       tiles::bytes(sorted_local) + tiles::bytes(global) + tiles::bytes(counts) + tiles::bytes(scratch);
     for (const Neighborhoods& l : lists) b += tiles::bytes(l.indices) + tiles::bytes(l.counts);
     return b;
   }
 
-  void compute(const FlowParams& flow, double lambda) {
-    const int h = static_cast<int>(lists.size());
-    for (int j = 1; j <= h; ++j) {
-      const std::size_t last = static_cast<std::size_t>(h - j);
-      for (std::size_t l = 0; l <= last; ++l) {
-        const std::size_t begin = l == 0 ? 0 : level_end[l - 1], end = level_end[l];
+  // `beta`: SmoothParams::shrink_compensation (0: plain steps); the block has d = h levels
+  // of lists, or 2 h when compensated.
+  void compute(const FlowParams& flow, double lambda, double beta) {
+    const std::size_t rings = beta > 0.0 ? 2 : 1;
+    const std::size_t d = lists.size(), h = d / rings;
+    const auto ids_of = [&](std::size_t l) {
+      const std::size_t begin = l == 0 ? 0 : level_end[l - 1];
+      return std::span<const Index>(ids.data() + begin, level_end[l] - begin);
+    };
+    const auto part = [&](std::vector<Vec3>& v, std::size_t l) {
+      const std::size_t begin = l == 0 ? 0 : level_end[l - 1];
+      return std::span<Vec3>(v.data() + begin, level_end[l] - begin);
+    };
+    if (beta > 0.0) updated.resize(cur.size());
+    for (std::size_t j = 1; j <= h; ++j) {
+      // The deepest level whose step-j positions are exact, and the deepest plain update.
+      const std::size_t last = d - rings * j, reach = last + rings - 1;
+      for (std::size_t l = 0; l <= reach; ++l) {
         const StepStats stats =
-            euler_step(cur, lists[l], std::span<const Index>(ids.data() + begin, end - begin), flow, lambda,
-                       std::span<Vec3>(next.data() + begin, end - begin));
-        if (l == 0) degenerate[static_cast<std::size_t>(j - 1)] = stats.degenerate;
+            euler_step(cur, lists[l], ids_of(l), flow, lambda, part(beta > 0.0 ? updated : next, l));
+        if (l == 0) degenerate[j - 1] = stats.degenerate;
       }
+      if (beta > 0.0)
+        for (std::size_t l = 0; l <= last; ++l)
+          compensate_shrinkage(cur, updated, lists[l], ids_of(l), beta, part(next, l));
       std::copy(next.begin(), next.begin() + static_cast<std::ptrdiff_t>(level_end[last]), cur.begin());
     }
   }
@@ -231,12 +254,17 @@ class Run {
   const h5::File& file() const { return *file_; }
   int k() const { return params_.neighbors.k; }
   bool auto_lambda_on() const { return params_.flow.lambda == 0.0; }
-  // SmoothParams::stop_lambda_ratio applies (as in smooth(): anisotropic, automatic lambda
-  // measured every step).
+  // SmoothParams::stop_lambda_ratio or stop_plateau applies (as in smooth(): anisotropic,
+  // automatic lambda measured every step).
   bool stops_automatically() const {
     return params_.flow.flow == Flow::Anisotropic && auto_lambda_on() && params_.lambda_every_step &&
-           params_.stop_lambda_ratio > 0.0;
+           (params_.stop_lambda_ratio > 0.0 || params_.stop_plateau > 0.0);
   }
+  bool compensated() const { return params_.shrink_compensation > 0.0; }
+  // Steps load a tile with the rings of its lists' closure (BlockSlot) rather than one halo.
+  bool blocks() const { return options_.temporal_block > 1 || compensated(); }
+  // Levels of a block of h steps (BlockSlot): h, or 2 h when compensated.
+  int block_depth(int h) const { return compensated() ? 2 * h : h; }
   std::string current_source() const {
     return state_[kStepBuffer] == 0 ? std::string(layout::positions)
                                     : positions_buffer(static_cast<int>(state_[kStepBuffer] - 1));
@@ -989,9 +1017,9 @@ std::shared_ptr<const TileNeighbors> Run::neighbors_of(std::size_t t) {
 void Run::prepare_lists(OutOfCoreReport& report) {
   // The lists of every tile in tile-local indices and Morton order (kept in memory while they
   // fit, else in /run/neighbors/local), before the steps: this is part of building them, as
-  // the in-core run reorders its lists before its steps. Temporal blocks read the lists in
-  // container rows instead.
-  if (options_.temporal_block > 1) return;
+  // the in-core run reorders its lists before its steps. Temporal blocks and compensated
+  // steps read the lists in container rows instead.
+  if (blocks()) return;
   const auto t0 = Clock::now();
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     if (tiles_.rows(t) == 0 || local_written_[t]) continue;
@@ -1120,10 +1148,19 @@ std::size_t Run::pipeline_slots(std::uint64_t fixed) {
     halo = file().dataset(layout::neighbor_halo_counts).read_all<std::uint64_t>();
   const std::uint64_t per_row =
       2 * sizeof(Vec3) + static_cast<std::uint64_t>(k() + 1) * sizeof(Index) + sizeof(std::uint16_t);
+  // A block (BlockSlot) of d levels holds the tile and d rings, each taken as large as the
+  // first (the halo), with lists for levels 0 .. d - 1: positions (two buffers, three when
+  // compensated, and the scratch of the rings' reads), rows and sorted rows, the lists and
+  // the container rows of one level's lists while it is read.
+  const std::uint64_t d = blocks() ? static_cast<std::uint64_t>(block_depth(std::max(1, options_.temporal_block))) : 0;
+  const std::uint64_t list_bytes = static_cast<std::uint64_t>(k()) * sizeof(Index) + sizeof(std::uint16_t);
+  const std::uint64_t per_local = (compensated() ? 3 : 2) * sizeof(Vec3) + 2 * sizeof(std::uint64_t) + sizeof(Index);
+  const std::uint64_t per_listed = sizeof(Vec3) + sizeof(Index) + 2 * list_bytes;
   slot_estimate_ = 0;
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t rows = tiles_.rows(t), h = t < halo.size() ? halo[t] : rows;
-    slot_estimate_ = std::max(slot_estimate_, rows * per_row + h * (sizeof(Vec3) + sizeof(std::uint64_t)));
+    slot_estimate_ = std::max(slot_estimate_, d > 0 ? (rows + d * h) * per_local + (rows + (d - 1) * h) * per_listed
+                                                    : rows * per_row + h * (sizeof(Vec3) + sizeof(std::uint64_t)));
   }
   // As many slots as asked for, as long as they fit next to what the run keeps (with half an
   // estimate of margin: a slot's vectors keep the capacity of the largest tile it held).
@@ -1165,12 +1202,14 @@ bool Run::run_steps(OutOfCoreReport& report) {
   h5::Dataset log = file().dataset(layout::run_step_log);
   const std::uint64_t writes = tiles_to_write();
   int committed_here = 0;
-  // The automatic stop compares each step's lambda with the input's (logged as step 0's).
-  double lambda_input = 0.0;
+  // The automatic stop looks at the lambdas of every step so far (should_stop): those of the
+  // steps before `start` from the step log, so that a resumed run stops where an
+  // uninterrupted one does.
+  std::vector<double> lambdas;
   if (stops_automatically() && start > 0) {
-    double entry[2];
-    log.read_rows(0, 1, entry);
-    lambda_input = entry[0];
+    std::vector<double> entries(2 * static_cast<std::size_t>(start));
+    log.read_rows(0, static_cast<std::uint64_t>(start), entries.data());
+    for (int s = 0; s < start; ++s) lambdas.push_back(entries[2 * static_cast<std::size_t>(s)]);
   }
   // The tiles of a step go through a bounded pipeline (pipeline.hpp): tile i+1 and its halo
   // are read while tile i is computed and tile i-1 written, all HDF5 calls on this thread.
@@ -1200,9 +1239,9 @@ bool Run::run_steps(OutOfCoreReport& report) {
     }
     return total;
   };
-  // Temporal blocks (OutOfCoreOptions::temporal_block): h steps per load of a tile and its
-  // h-ring closure, in a pipeline of their own.
-  std::vector<BlockSlot> block_slots(options_.temporal_block > 1 ? slot_count : 0);
+  // Temporal blocks (OutOfCoreOptions::temporal_block) and compensated steps: h steps per load
+  // of a tile and its h-ring (2 h-ring) closure, in a pipeline of their own.
+  std::vector<BlockSlot> block_slots(blocks() ? slot_count : 0);
   const auto block_bytes = [&] {
     std::uint64_t total = 0;
     for (const BlockSlot& b : block_slots) total += b.bytes();
@@ -1223,8 +1262,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
     }
     if (every_step) lambda = sample_lambda();
     if (stops_automatically()) {
-      if (step == 0) lambda_input = lambda;
-      if (step > 0 && lambda <= params_.stop_lambda_ratio * lambda_input) {
+      lambdas.push_back(lambda);
+      if (should_stop(params_, lambdas)) {
         final_steps_ = step;
         stop_lambda_ = lambda;
         return true;
@@ -1236,17 +1275,27 @@ bool Run::run_steps(OutOfCoreReport& report) {
     std::vector<std::size_t> block_degenerate(static_cast<std::size_t>(h), 0);
     std::size_t degenerate = 0;
     PipelineStages stages;
-    if (h > 1) {
+    if (blocks()) {
       stages.read = [&](std::size_t item, std::size_t slot) {
-        read_block(work[item], h, source, block_slots[slot]);
+        read_block(work[item], block_depth(h), source, block_slots[slot]);
+        // The plain updates of a compensated step, counted with the rest of the block.
+        if (compensated()) block_slots[slot].updated.resize(block_slots[slot].cur.size());
         largest_local_ = std::max<std::uint64_t>(largest_local_, block_slots[slot].cur.size());
         account(block_bytes() + bytes(identity));
       };
-      stages.compute = [&](std::size_t slot) { block_slots[slot].compute(params_.flow, lambda); };
+      stages.compute = [&](std::size_t slot) {
+        block_slots[slot].compute(params_.flow, lambda, params_.shrink_compensation);
+      };
       stages.write = [&](std::size_t, std::size_t slot) {
         BlockSlot& b = block_slots[slot];
-        target.write_rows(tiles_.offsets[b.tile], tiles_.rows(b.tile), b.cur.data()->data(), h5::Transfer::Collective);
+        const std::uint64_t begin = tiles_.offsets[b.tile], rows = tiles_.rows(b.tile);
+        target.write_rows(begin, rows, b.cur.data()->data(), h5::Transfer::Collective);
         for (int j = 0; j < h; ++j) block_degenerate[static_cast<std::size_t>(j)] += b.degenerate[static_cast<std::size_t>(j)];
+        if (every_step) {  // one step a block (temporal blocks refuse a lambda of every step)
+          auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
+          for (; it != gather_rows_.end() && *it < begin + rows; ++it)
+            gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = b.cur[*it - begin];
+        }
       };
     } else {
     stages.read = [&](std::size_t item, std::size_t slot) {
@@ -1283,7 +1332,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     run_pipeline(work.size(), slot_count, stages);
     // Collective writes: as many per rank as the rank with the most tiles.
     for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
-    if (h == 1) block_degenerate[0] = degenerate;
+    if (!blocks()) block_degenerate[0] = degenerate;
     if (every_step && ranks_->size() > 1) {
       // Each rank updated the sample's positions in its own tiles: exchange them.
       const auto first = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), my_first_row()) - gather_rows_.begin();

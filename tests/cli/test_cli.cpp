@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -117,6 +118,34 @@ TEST_F(CliTest, SmoothWritesResultAndJsonSummary) {
   EXPECT_GT(moved, 0.0);
   EXPECT_LT(moved, 0.2);
   EXPECT_TRUE(files_except({"in.ply", "out.ply"}).empty());
+}
+
+// A point file over --memory-budget runs out of core; the shrinkage compensation and the
+// plateau stop reach that path: the same points and the same number of steps as in core, and
+// not those of the uncompensated flow.
+TEST_F(CliTest, OutOfCoreSmoothTakesCompensationAndPlateauStop) {
+  const fs::path in = write_cloud("in.ply", 12000);
+  const std::string method =
+      " --steps 40 --shrink-compensation 1 --stop-plateau 0.03 --stop-lambda-ratio 0 --threads 2 --json --quiet";
+  const auto steps_of = [](const std::string& json) {
+    const std::size_t at = json.find("\"steps\": ");
+    return at == std::string::npos ? -1 : std::atoi(json.c_str() + at + 9);
+  };
+  const RunResult core = run("smooth " + in.string() + " " + (dir_ / "a.ply").string() + method);
+  ASSERT_EQ(core.exit_code, 0) << core.err;
+  EXPECT_EQ(core.out.find("\"out_of_core\": true"), std::string::npos) << core.out;
+  const RunResult ooc = run("smooth " + in.string() + " " + (dir_ / "b.ply").string() + " --memory-budget 3M" + method);
+  ASSERT_EQ(ooc.exit_code, 0) << ooc.err;
+  EXPECT_NE(ooc.out.find("\"out_of_core\": true"), std::string::npos) << ooc.out;
+  EXPECT_GT(steps_of(core.out), 8);
+  EXPECT_EQ(steps_of(ooc.out), steps_of(core.out)) << core.out << "\n" << ooc.out;
+  const io::PointTable a = io::read_points(dir_ / "a.ply"), b = io::read_points(dir_ / "b.ply");
+  EXPECT_EQ(a.positions, b.positions);
+  const RunResult plain = run("smooth " + in.string() + " " + (dir_ / "c.ply").string() +
+                              " --memory-budget 3M --steps " + std::to_string(steps_of(core.out)) +
+                              " --stop-lambda-ratio 0 --threads 2 --quiet");
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_NE(io::read_points(dir_ / "c.ply").positions, b.positions);
 }
 
 // LAS in, LAS out: same point format and integer grid, per-point fields untouched.

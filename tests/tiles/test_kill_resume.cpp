@@ -41,46 +41,68 @@ class KillResumeTest : public test::TempDirTest {
     waitpid(pid, &status, 0);
     return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
   }
+
+  // Runs `pointfair smooth in.h5 ref.h5 <options>` once, then the same into out.h5 killed
+  // with SIGKILL at growing moments (setup, neighbourhoods, steps, commits, attributes) and
+  // resumed each time until it finishes; out.h5 must equal ref.h5 to the bit.
+  void kill_and_resume(const std::vector<std::string>& options) {
+    auto args = [&](const std::string& out, bool resume) {
+      std::vector<std::string> a{"smooth", path("in.h5").string(), path(out).string()};
+      a.insert(a.end(), options.begin(), options.end());
+      if (resume) a.push_back("--resume");
+      return a;
+    };
+    const auto t0 = std::chrono::steady_clock::now();
+    ASSERT_EQ(wait_for(start(args("ref.h5", false))), 0);
+    const double full = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+    int kills = 0;
+    for (const double fraction : {0.03, 0.1, 0.2, 0.35, 0.5, 0.7, 0.9}) {
+      const pid_t pid = start(args("out.h5", true));
+      std::this_thread::sleep_for(std::chrono::duration<double>(fraction * full));
+      kill(pid, SIGKILL);
+      kills += wait_for(pid) == -SIGKILL;
+      if (std::filesystem::exists(path("out.h5"))) break;  // it finished before the kill
+      // Whatever is on disk now never looks like a finished run.
+      EXPECT_FALSE(std::filesystem::exists(path("out.h5")));
+    }
+    EXPECT_GT(kills, 0);
+    if (!std::filesystem::exists(path("out.h5"))) {
+      ASSERT_EQ(wait_for(start(args("out.h5", true))), 0);
+    }
+    ASSERT_TRUE(std::filesystem::exists(path("out.h5")));
+    EXPECT_FALSE(std::filesystem::exists(partial_name(path("out.h5"))));
+
+    const io::PointTable ref = read_container(path("ref.h5")), out = read_container(path("out.h5"));
+    EXPECT_EQ(ref.positions, out.positions);
+    const PointAttributes ra = read_run_attributes(path("ref.h5")), oa = read_run_attributes(path("out.h5"));
+    EXPECT_EQ(ra.k1, oa.k1);
+    EXPECT_EQ(ra.laplacian_norm, oa.laplacian_norm);
+    EXPECT_EQ(ra.normal, oa.normal);
+  }
 };
 
 TEST_F(KillResumeTest, SigkillAtSeveralMomentsThenResumeIsBitIdentical) {
   write_container(path("in.h5"), test::noisy_cube(20000, 21), test::tiled({.max_tile_points = 2500}));
-  const std::vector<std::string> common{"--steps", "12", "--threads", "2", "--quiet"};
-  auto args = [&](const std::string& out, bool resume) {
-    std::vector<std::string> a{"smooth", path("in.h5").string(), path(out).string()};
-    a.insert(a.end(), common.begin(), common.end());
-    if (resume) a.push_back("--resume");
-    return a;
-  };
-  const auto t0 = std::chrono::steady_clock::now();
-  ASSERT_EQ(wait_for(start(args("ref.h5", false))), 0);
-  const double full = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  kill_and_resume({"--steps", "12", "--threads", "2", "--quiet"});
+}
 
-  // Kill the same run again and again at growing moments (setup, neighbourhoods, steps,
-  // commits, attributes), resuming each time; then let it finish.
-  int kills = 0;
-  for (const double fraction : {0.03, 0.1, 0.2, 0.35, 0.5, 0.7, 0.9}) {
-    const pid_t pid = start(args("out.h5", true));
-    std::this_thread::sleep_for(std::chrono::duration<double>(fraction * full));
-    kill(pid, SIGKILL);
-    kills += wait_for(pid) == -SIGKILL;
-    if (std::filesystem::exists(path("out.h5"))) break;  // it finished before the kill
-    // Whatever is on disk now never looks like a finished run.
-    EXPECT_FALSE(std::filesystem::exists(path("out.h5")));
-  }
-  EXPECT_GT(kills, 0);
-  if (!std::filesystem::exists(path("out.h5"))) {
-    ASSERT_EQ(wait_for(start(args("out.h5", true))), 0);
-  }
-  ASSERT_TRUE(std::filesystem::exists(path("out.h5")));
-  EXPECT_FALSE(std::filesystem::exists(partial_name(path("out.h5"))));
-
-  const io::PointTable ref = read_container(path("ref.h5")), out = read_container(path("out.h5"));
-  EXPECT_EQ(ref.positions, out.positions);
-  const PointAttributes ra = read_run_attributes(path("ref.h5")), oa = read_run_attributes(path("out.h5"));
-  EXPECT_EQ(ra.k1, oa.k1);
-  EXPECT_EQ(ra.laplacian_norm, oa.laplacian_norm);
-  EXPECT_EQ(ra.normal, oa.normal);
+// The same with the shrinkage compensation and the plateau stop, which the command line
+// passes to the out-of-core run: its result is smooth()'s, stopped at the same step.
+TEST_F(KillResumeTest, CompensatedRunWithPlateauStopKilledAndResumedIsBitIdentical) {
+  const io::PointTable cloud = test::noisy_cube(12000, 22);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 2000}));
+  kill_and_resume({"--steps", "40", "--shrink-compensation", "1", "--stop-plateau", "0.1", "--stop-lambda-ratio",
+                   "0", "--threads", "2", "--quiet"});
+  SmoothParams params;
+  params.steps = 40;
+  params.shrink_compensation = 1.0;
+  params.stop_plateau = 0.1;
+  params.stop_lambda_ratio = 0.0;
+  const test::InCore in_core = test::run_in_core(cloud, params);
+  ASSERT_TRUE(in_core.report.stopped_early);
+  ASSERT_GT(in_core.report.steps, 8);
+  test::expect_identical(path("ref.h5"), in_core);
 }
 
 }  // namespace

@@ -23,6 +23,9 @@ using test::expect_identical;
 using test::InCore;
 using test::run_in_core;
 
+// A plateau that stops the compensated flow on the noisy cube well before 60 steps.
+constexpr double kPlateau = 0.03;
+
 SmoothParams few_steps(int steps = 3) {
   SmoothParams p;
   p.steps = steps;
@@ -346,6 +349,143 @@ TEST_F(TiledSmoothTest, AutomaticStopMatchesInCore) {
   EXPECT_TRUE(resumed.finished);
   EXPECT_EQ(resumed.steps, ref.report.steps);
   expect_identical(path("resumed.h5"), ref);
+}
+
+// --shrink-compensation: each tile is loaded with the 2-ring closure of its lists (the plain
+// updates of its halo need the halo's neighbours); the same bits as smooth() for any tiling,
+// lambda policy, pipeline depth and budget, with temporal blocks (2 h rings) and rebuilds, and
+// after a stop and --resume (also with another block length).
+TEST_F(TiledSmoothTest, ShrinkCompensationLikeInCore) {
+  const io::PointTable cloud = test::noisy_cube(3000, 24);
+  struct Compensated {
+    const char* name;
+    TilingParams tiling;
+    double beta, lambda;
+    bool every_step;
+    int rebuild;
+  };
+  const Compensated cases[] = {
+      {"kd 400, lambda every step", {.max_tile_points = 400}, 1.0, 0.0, true, 0},
+      {"kd 7, beta 0.5", {.max_tile_points = 7}, 0.5, 0.0, true, 0},
+      {"grid with empty tiles, lambda once, rebuilds", {.cell_size = 0.3}, 1.0, 0.0, false, 2},
+      {"kd 300, fixed lambda, rebuild every step", {.max_tile_points = 300}, 1.0, 12.0, true, 1},
+  };
+  set_thread_count(2);
+  for (const Compensated& c : cases) {
+    SCOPED_TRACE(c.name);
+    SmoothParams params = few_steps(4);
+    params.stop_lambda_ratio = 0.0;
+    params.shrink_compensation = c.beta;
+    params.flow.lambda = c.lambda;
+    params.lambda_every_step = c.every_step;
+    params.rebuild_interval = c.rebuild;
+    const InCore ref = run_in_core(cloud, params);
+    SmoothParams plain = params;
+    plain.shrink_compensation = 0.0;
+    ASSERT_NE(ref.positions, run_in_core(cloud, plain).positions) << "the compensation changes nothing here";
+    write_container(path("in.h5"), cloud, test::tiled(c.tiling, 256));
+    const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params);
+    EXPECT_TRUE(r.finished);
+    EXPECT_EQ(r.steps, 4);
+    EXPECT_EQ(r.lambda, ref.report.lambda);
+    EXPECT_EQ(r.degenerate, ref.report.degenerate);
+    EXPECT_EQ(r.rebuilds, ref.report.rebuilds);
+    expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+    // Stopped after a step, then resumed.
+    OutOfCoreOptions first;
+    first.stop_after_steps = 3;
+    EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, first).finished);
+    OutOfCoreOptions resume;
+    resume.resume = true;
+    EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume).finished);
+    expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+  }
+  // Tiny tiles, several in flight, the budget tight or not; temporal blocks of 2 and 3 steps
+  // (4 and 6 rings) with a lambda measured once.
+  SmoothParams params = few_steps(5);
+  params.shrink_compensation = 1.0;
+  params.lambda_every_step = false;
+  const InCore ref = run_in_core(cloud, params);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 40}, 64));
+  for (const std::uint64_t budget : {std::uint64_t{64} << 20, std::uint64_t{1} << 20}) {
+    for (const int h : {1, 2, 3}) {
+      SCOPED_TRACE(testing::Message() << "budget " << budget << ", h = " << h);
+      OutOfCoreOptions options;
+      options.memory_budget = budget;
+      options.tiles_in_flight = 3;
+      options.temporal_block = h;
+      const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, options);
+      EXPECT_EQ(r.steps, 5);
+      EXPECT_LE(r.peak_accounted_bytes, budget);
+      EXPECT_EQ(r.lambda, ref.report.lambda);
+      expect_identical(path("run.h5"), ref);
+      std::filesystem::remove(path("run.h5"));
+      options.stop_after_steps = 1;
+      EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
+      OutOfCoreOptions resume;
+      resume.resume = true;
+      resume.temporal_block = 4 - h;
+      EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume).finished);
+      expect_identical(path("run.h5"), ref);
+      std::filesystem::remove(path("run.h5"));
+    }
+  }
+  // A resume with another beta (or none) is refused.
+  OutOfCoreOptions stop;
+  stop.stop_after_steps = 1;
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, stop).finished);
+  OutOfCoreOptions resume;
+  resume.resume = true;
+  for (const double beta : {0.0, 0.5}) {
+    SmoothParams other = params;
+    other.shrink_compensation = beta;
+    EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), other, resume), ParamError) << beta;
+  }
+}
+
+// --stop-plateau: the out-of-core run stops at the step smooth() stops at, also when it is
+// stopped before the stop (with fewer than the 8 steps of history the plateau needs, and
+// after) and resumed: the lambdas of the earlier steps come from the step log. A resume with
+// another plateau is refused.
+TEST_F(TiledSmoothTest, PlateauStopMatchesInCore) {
+  const io::PointTable cloud = test::noisy_cube(4000, 25);
+  SmoothParams params;
+  params.steps = 60;
+  params.stop_lambda_ratio = 0.0;
+  params.stop_plateau = kPlateau;
+  params.shrink_compensation = 1.0;
+  const InCore ref = run_in_core(cloud, params);
+  ASSERT_TRUE(ref.report.stopped_early);
+  ASSERT_GT(ref.report.steps, 10);
+  ASSERT_LT(ref.report.steps, params.steps);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 700}));
+  const OutOfCoreReport whole = smooth_out_of_core(path("in.h5"), path("run.h5"), params);
+  EXPECT_TRUE(whole.finished);
+  EXPECT_EQ(whole.steps, ref.report.steps);
+  EXPECT_EQ(whole.lambda, ref.report.lambda);
+  expect_identical(path("run.h5"), ref);
+  for (const int before : {ref.report.steps - 5, 3, ref.report.steps - 1}) {
+    SCOPED_TRACE(testing::Message() << "stopped after " << before << " steps");
+    OutOfCoreOptions stop;
+    stop.stop_after_steps = before;
+    EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, stop).finished);
+    OutOfCoreOptions resume;
+    resume.resume = true;
+    SmoothParams other = params;
+    other.stop_plateau = 0.0;
+    EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("resumed.h5"), other, resume), ParamError);
+    other.stop_plateau = kPlateau / 2;
+    EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("resumed.h5"), other, resume), ParamError);
+    const OutOfCoreReport resumed = smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, resume);
+    EXPECT_TRUE(resumed.finished);
+    EXPECT_EQ(resumed.resumed_from, before);
+    EXPECT_EQ(resumed.steps, ref.report.steps);
+    EXPECT_EQ(resumed.lambda, ref.report.lambda);
+    expect_identical(path("resumed.h5"), ref);
+    std::filesystem::remove(path("resumed.h5"));
+  }
 }
 
 TEST_F(TiledSmoothTest, MemoryAccountingStaysInTheBudget) {

@@ -81,8 +81,9 @@ int run_smooth_out_of_core(const Args& args) {
                "points, same order) instead of the input.",
                [&](std::string_view v) { ooc.neighbor_reference = std::string(v); });
   parser.value("temporal-block", "H",
-               "Steps per load of a tile, which then comes with H rings of neighbours: less I/O "
-               "per step, same result. Needs a fixed --lambda or --lambda-schedule once. Default 1.",
+               "Steps per load of a tile, which then comes with H rings of neighbours (2H with "
+               "--shrink-compensation): less I/O per step, same result. Needs a fixed --lambda or "
+               "--lambda-schedule once. Default 1.",
                [&](std::string_view v) { ooc.temporal_block = parse_int(v, "--temporal-block"); });
   parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters).",
               [&] { ooc.resume = true; });
@@ -98,7 +99,8 @@ int run_smooth_out_of_core(const Args& args) {
   if (!container_in) {
     // The PLY header's count, or a counting pass over a text file: the cloud is not loaded.
     const std::uint64_t points = count_points(input);
-    if (!container_out && in_core_bytes(points, params.neighbors.k) <= ooc.memory_budget && !ooc.resume) {
+    const bool compensated = params.shrink_compensation > 0.0;
+    if (!container_out && in_core_bytes(points, params.neighbors.k, compensated) <= ooc.memory_budget && !ooc.resume) {
       return run_smooth(without_budget(args));
     }
     io::require_distinct(input, output_path);

@@ -56,10 +56,10 @@ std::uint64_t count_points(const std::filesystem::path& file) {
   return reader->points_read();
 }
 
-std::uint64_t in_core_bytes(std::uint64_t points, int k) {
-  // Positions (input, current, next, before), neighbour lists twice while reordering, the
-  // table's attribute columns.
-  return points * (4 * 24 + 8 * static_cast<std::uint64_t>(k) + 64);
+std::uint64_t in_core_bytes(std::uint64_t points, int k, bool compensated) {
+  // Positions (input, current, next, before, and the plain update of a compensated step),
+  // neighbour lists twice while reordering, the table's attribute columns.
+  return points * ((compensated ? 5 : 4) * 24 + 8 * static_cast<std::uint64_t>(k) + 64);
 }
 
 }  // namespace pointfair::cli

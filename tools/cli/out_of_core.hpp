@@ -22,7 +22,8 @@ std::uint64_t count_points(const std::filesystem::path& file);
 /// The least memory budget the streaming import accepts (tiles::import_points).
 inline constexpr std::uint64_t kMinImportBudget = std::uint64_t{16} << 20;
 
-/// Bytes an in-core smooth of `points` points with k neighbours needs, roughly.
-std::uint64_t in_core_bytes(std::uint64_t points, int k);
+/// Bytes an in-core smooth of `points` points with k neighbours needs, roughly; `compensated`:
+/// with SmoothParams::shrink_compensation (one more buffer of positions).
+std::uint64_t in_core_bytes(std::uint64_t points, int k, bool compensated = false);
 
 }  // namespace pointfair::cli

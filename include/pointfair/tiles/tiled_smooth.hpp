@@ -14,6 +14,11 @@
 //   the list order, so any tiling gives the same bits.
 // - rebuilds (SmoothParams::rebuild_interval) resolve eps again and build the lists the same
 //   way from the step's positions, with halos around the tiles' current bounds.
+// - a compensated step (SmoothParams::shrink_compensation) needs the plain updates of a
+//   point's neighbours, hence the 2-ring closure of the tile's lists: such steps load each
+//   tile with it (as temporal blocks do, two rings a step) and compensate in list order.
+// - the automatic stops (stop_lambda_ratio, stop_plateau) see the lambda of every step so
+//   far; a resumed run reads those of the steps before it from the run's step log.
 //
 // Each step is a bounded pipeline (pipeline.hpp): tile i+1 and its halo are read while tile
 // i is computed (parallel_for) and tile i-1 written; every HDF5 call stays on the calling
@@ -42,9 +47,10 @@ struct OutOfCoreOptions {
   /// compute and write one tile after the other. Results do not depend on it.
   int tiles_in_flight = 3;
   /// Temporal blocking: steps done per load of a tile, which comes with the h-ring closure of
-  /// its neighbour lists (every point its step-n+h position depends on), to cut the I/O of
-  /// halos and lists. Needs a lambda that stays fixed between steps (a fixed lambda, or one
-  /// measured once); blocks end at rebuilds. 1: one step per load. Results do not depend on it.
+  /// its neighbour lists (every point its step-n+h position depends on; the 2h-ring closure
+  /// with SmoothParams::shrink_compensation), to cut the I/O of halos and lists. Needs a lambda
+  /// that stays fixed between steps (a fixed lambda, or one measured once); blocks end at
+  /// rebuilds. 1: one step per load. Results do not depend on it.
   int temporal_block = 1;
   /// Build the first neighbourhoods from this cloud instead of the input (SmoothOptions::
   /// neighbor_reference): a point file or container with the same points in the input's

@@ -29,11 +29,9 @@ class MpiRunTest : public test::TempDirTest {
 
   // The single-process run of the same parameters, into `out`.
   void run_serial(const std::string& out, bool resume = false) {
-    SmoothParams params;
-    params.steps = kSteps;
     OutOfCoreOptions options;
     options.resume = resume;
-    smooth_out_of_core(path("in.h5"), path(out), params, options);
+    smooth_out_of_core(path("in.h5"), path(out), params_, options);
   }
 
   // mpirun -np `ranks` pointfair_mpi smooth in.h5 `out` ...; returns the exit code (124 or
@@ -45,7 +43,7 @@ class MpiRunTest : public test::TempDirTest {
     cmd << "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 "
         << "OMPI_MCA_btl_vader_single_copy_mechanism=none "
         << env << " timeout -k 5 60 " << POINTFAIR_MPIEXEC << " --oversubscribe -np " << ranks << " " << POINTFAIR_MPI_EXE
-        << " smooth " << path("in.h5") << " " << path(out) << " --steps " << kSteps << " --threads 1"
+        << " smooth " << path("in.h5") << " " << path(out) << " --steps " << params_.steps << method_ << " --threads 1"
         << (resume ? " --resume" : "") << " > " << path("log.txt") << " 2>&1";
     const auto t0 = std::chrono::steady_clock::now();
     const int status = std::system(cmd.str().c_str());
@@ -92,6 +90,13 @@ class MpiRunTest : public test::TempDirTest {
     EXPECT_EQ(read_container(path(a)).positions, read_container(path(b)).positions);
   }
 
+  // The parameters of the runs: those of run_serial, and the same as options of run_mpi.
+  SmoothParams params_ = [] {
+    SmoothParams p;
+    p.steps = kSteps;
+    return p;
+  }();
+  std::string method_;
   std::string log_;
   double seconds_ = 0.0;  // of the last run_mpi
 };
@@ -179,11 +184,42 @@ TEST_F(MpiRunTest, StoppedOnThreeRanksResumedByOneProcessAndViceVersa) {
   run_serial("a.h5", true);
   expect_same_run("ref.h5", "a.h5");
 
-  SmoothParams params;
-  params.steps = kSteps;
   OutOfCoreOptions options;
   options.stop_after_steps = 3;
-  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("b.h5"), params, options).finished);
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("b.h5"), params_, options).finished);
+  ASSERT_EQ(run_mpi(2, "b.h5", "", true), 0) << log_;
+  expect_same_run("ref.h5", "b.h5");
+}
+
+// The compensated flow (2-ring closures of the tiles) with the plateau stop: 3 ranks give the
+// single process's run to the bit, stopped at the same step; a run stopped on 2 ranks before
+// the stop resumes on 3 (the lambdas so far from the step log) and one stopped by a single
+// process resumes on 2, still to the bit.
+TEST_F(MpiRunTest, CompensationAndPlateauStopOnRanksAndResumedOnOthers) {
+  params_.steps = 40;
+  params_.stop_lambda_ratio = 0.0;
+  params_.stop_plateau = 0.03;
+  params_.shrink_compensation = 1.0;
+  method_ = " --stop-lambda-ratio 0 --stop-plateau 0.03 --shrink-compensation 1";
+  run_serial("ref.h5");
+  const int stopped_at = [&] {  // the steps done
+    const h5::File ref = h5::File::open(path("ref.h5"), false);
+    return static_cast<int>(ref.dataset("/run/state").read_all<std::int64_t>()[2]);
+  }();
+  ASSERT_GT(stopped_at, 9);
+  ASSERT_LT(stopped_at, params_.steps) << "the plateau should stop the run";
+  ASSERT_EQ(run_mpi(3, "out.h5"), 0) << log_;
+  expect_collective_writes();
+  expect_same_run("ref.h5", "out.h5");
+
+  ASSERT_EQ(run_mpi(2, "a.h5", "POINTFAIR_MPI_STOP_AFTER_STEPS=" + std::to_string(stopped_at - 3)), 0) << log_;
+  ASSERT_FALSE(std::filesystem::exists(path("a.h5")));
+  ASSERT_EQ(run_mpi(3, "a.h5", "", true), 0) << log_;
+  expect_same_run("ref.h5", "a.h5");
+
+  OutOfCoreOptions options;
+  options.stop_after_steps = 5;
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("b.h5"), params_, options).finished);
   ASSERT_EQ(run_mpi(2, "b.h5", "", true), 0) << log_;
   expect_same_run("ref.h5", "b.h5");
 }
