@@ -5,14 +5,18 @@
 #include <atomic>
 #include <bit>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <limits>
 #include <cmath>
 #include <string>
+#include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
+#include "covariance_normal.hpp"
 
 namespace pointfair {
 
@@ -63,48 +67,195 @@ PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
 
 namespace {
 
-// The step's hot path. One pass gathers the neighbour offsets d_j = p_j - p into small local
-// arrays, one per coordinate (structure of arrays), padded with a zero to an even count; the
-// sums of the covariance and of the cut-off then run over two neighbours at a time (GCC/Clang
-// vector types: one SSE2 register, plain scalar code where there is none), one accumulator a
-// quantity (more would spill). Each lane always sums the same neighbours in the same order, so
-// the bits depend on nothing but the inputs. A zero offset adds nothing to any sum, so the
-// padding changes no result. The cut-off is a mask, not a branch. Same formulas as
-// evaluate_point (which the tests hold it against, with the plain reference in
-// tests/support); evaluate_point classifies the points under feature gating and moves those
-// with an unusually large neighbourhood.
+// The step's hot path. One pass gathers the neighbour offsets into small local arrays, one per
+// coordinate (structure of arrays), padded with zeros to a multiple of four; the sums of the
+// covariance and of the cut-off then run over four neighbours at a time (GCC / Clang vector
+// types: one AVX2 register in the AVX2 kernel, two SSE2 registers in the plain one), one
+// accumulator a quantity (more would spill). Lane l always sums neighbours l, l + 4,
+// l + 8, ... in that order and the lanes are added as (0 + 2) + (1 + 3) in both kernels, and
+// neither kernel fuses a multiply into an add (the AVX2 one is compiled for "avx2" alone, not
+// "fma"), so both give the same bits, which depend on nothing but the inputs. A zero offset
+// adds nothing to any sum, so the padding changes no result. The cut-off is a mask, not a
+// branch. Same formulas as evaluate_point (which the tests hold it against, with the plain
+// reference in tests/support); evaluate_point classifies the points under feature gating and
+// moves those with an unusually large neighbourhood.
+//
+// The arrays hold the offsets negated, b_j = p - p_j = -d_j: the subtraction then reads p_j
+// straight from memory (one instruction, x and y together). Negation is exact and commutes
+// with rounding, so every sum below is the exact negative of the sum of the d_j, every
+// product and square is unchanged, and the covariance, the normal and the cut-off decisions
+// are those of the d_j to the bit; the motion is negated back at the end.
 constexpr std::size_t kLocalNeighbors = 64;
+constexpr std::size_t kLanes = 4;
+
+// Four lanes of doubles, two ways. Wide: one AVX register (the AVX2 kernel). Split: two SSE2
+// registers, lanes 0 and 1 in lo, 2 and 3 in hi (the plain kernel). The loops run over lane
+// groups G: the one Wide group, or each Pair half of a Split in turn (two passes over the
+// offsets, lanes 0-1 then lanes 2-3: nine accumulators of both halves at once would not fit
+// in the 16 SSE registers, and GCC's own lowering of a 32-byte vector without AVX goes
+// through memory). Each lane sees the same operations on the same neighbours in the same
+// order either way, so both kernels give the same bits.
+using Wide = double __attribute__((vector_size(kLanes * sizeof(double))));
+using WideBits = std::int64_t __attribute__((vector_size(kLanes * sizeof(double))));
 using Pair = double __attribute__((vector_size(2 * sizeof(double))));
 using PairBits = std::int64_t __attribute__((vector_size(2 * sizeof(double))));
-
-struct Offsets {
-  // One more slot for the padding zero.
-  alignas(sizeof(Pair)) double x[kLocalNeighbors + 2];
-  alignas(sizeof(Pair)) double y[kLocalNeighbors + 2];
-  alignas(sizeof(Pair)) double z[kLocalNeighbors + 2];
+struct Split {
+  Pair lo, hi;
 };
 
-Pair load(const double* from) {
-  Pair v;
+// Every function below that takes or returns a Wide is inlined into the AVX2 instantiation of
+// step_rows, so no Wide crosses a call and the calling convention GCC warns about (32-byte
+// vectors without AVX) is never used. (GCC reports it at the end of the file, so it stays off
+// for the whole file.)
+#define POINTFAIR_INLINE [[gnu::always_inline]] inline
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wpsabi"
+#endif
+
+struct Offsets {
+  // Up to three more slots for the padding zeros.
+  alignas(sizeof(Wide)) double x[kLocalNeighbors + kLanes];
+  alignas(sizeof(Wide)) double y[kLocalNeighbors + kLanes];
+  alignas(sizeof(Wide)) double z[kLocalNeighbors + kLanes];
+};
+
+template <class G>
+POINTFAIR_INLINE G load(const double* from) {
+  G v;
   std::memcpy(&v, from, sizeof v);
   return v;
 }
-Pair splat(double x) { return Pair{x, x}; }
-// The two lanes: even and odd neighbours.
-double lane_sum(Pair s) { return s[0] + s[1]; }
-// Keeps the lanes of v whose mask is all ones, zeroes the others.
-Pair keep_if(Pair v, PairBits mask) {
-  return std::bit_cast<Pair>(std::bit_cast<PairBits>(v) & mask);
+template <class G>
+POINTFAIR_INLINE G splat(double x) {
+  if constexpr (std::is_same_v<G, Pair>) {
+    return Pair{x, x};
+  } else {
+    return Wide{x, x, x, x};
+  }
 }
-Pair abs_lanes(Pair v) {
+
+// The lanes of v where a < b, zero elsewhere (a mask, no branch).
+template <class G>
+POINTFAIR_INLINE G keep_if_less(const G& v, const G& a, const G& b) {
+  using Bits = std::conditional_t<std::is_same_v<G, Pair>, PairBits, WideBits>;
+  return std::bit_cast<G>(std::bit_cast<Bits>(v) & (a < b));
+}
+template <class G>
+POINTFAIR_INLINE G abs_lanes(const G& v) {
+  using Bits = std::conditional_t<std::is_same_v<G, Pair>, PairBits, WideBits>;
   constexpr std::int64_t kMagnitude = std::numeric_limits<std::int64_t>::max();  // all but the sign
-  return std::bit_cast<Pair>(std::bit_cast<PairBits>(v) & kMagnitude);
+  return std::bit_cast<G>(std::bit_cast<Bits>(v) & kMagnitude);
+}
+
+// The sums of the four lanes of a, b, c and d, each as (0 + 2) + (1 + 3): a few shuffles for
+// all four rather than a chain of extractions each.
+struct LaneSums {
+  double a, b, c, d;
+};
+POINTFAIR_INLINE LaneSums lane_sums(const Wide& a, const Wide& b, const Wide& c, const Wide& d) {
+  const Wide ab = __builtin_shufflevector(a, b, 0, 1, 4, 5) + __builtin_shufflevector(a, b, 2, 3, 6, 7);
+  const Wide cd = __builtin_shufflevector(c, d, 0, 1, 4, 5) + __builtin_shufflevector(c, d, 2, 3, 6, 7);
+  const Wide acbd = __builtin_shufflevector(ab, cd, 0, 4, 2, 6) + __builtin_shufflevector(ab, cd, 1, 5, 3, 7);
+  return {acbd[0], acbd[2], acbd[1], acbd[3]};
+}
+POINTFAIR_INLINE LaneSums lane_sums(const Split& a, const Split& b, const Split& c, const Split& d) {
+  const Pair pa = a.lo + a.hi, pb = b.lo + b.hi, pc = c.lo + c.hi, pd = d.lo + d.hi;
+  const Pair ac = __builtin_shufflevector(pa, pc, 0, 2) + __builtin_shufflevector(pa, pc, 1, 3);
+  const Pair bd = __builtin_shufflevector(pb, pd, 0, 2) + __builtin_shufflevector(pb, pd, 1, 3);
+  return {ac[0], bd[0], ac[1], bd[1]};
+}
+
+// Lane group G's share of the sums of the offsets and of their products, over the lanes that
+// start at `first` (0, or 2 for the upper Pair), four neighbours a step.
+template <class G>
+struct MomentSums {
+  G x{}, y{}, z{}, xx{}, xy{}, xz{}, yy{}, yz{}, zz{};
+};
+template <bool kProducts, class G>
+POINTFAIR_INLINE MomentSums<G> moment_pass(const Offsets& d, std::size_t padded, std::size_t first) {
+  MomentSums<G> s;
+  for (std::size_t j = first; j < padded; j += kLanes) {
+    const G x = load<G>(d.x + j), y = load<G>(d.y + j), z = load<G>(d.z + j);
+    s.x += x;
+    s.y += y;
+    s.z += z;
+    if constexpr (kProducts) {
+      s.xx += x * x;
+      s.xy += x * y;
+      s.xz += x * z;
+      s.yy += y * y;
+      s.yz += y * z;
+      s.zz += z * z;
+    }
+  }
+  return s;
+}
+// The same for a lane type Q (Wide, or Split: both halves).
+template <bool kProducts, class Q>
+POINTFAIR_INLINE MomentSums<Q> moment_sums(const Offsets& d, std::size_t padded) {
+  if constexpr (std::is_same_v<Q, Wide>) {
+    return moment_pass<kProducts, Wide>(d, padded, 0);
+  } else {
+    const MomentSums<Pair> lo = moment_pass<kProducts, Pair>(d, padded, 0);
+    const MomentSums<Pair> hi = moment_pass<kProducts, Pair>(d, padded, 2);
+    return {{lo.x, hi.x}, {lo.y, hi.y}, {lo.z, hi.z}, {lo.xx, hi.xx}, {lo.xy, hi.xy},
+            {lo.xz, hi.xz}, {lo.yy, hi.yy}, {lo.yz, hi.yz}, {lo.zz, hi.zz}};
+  }
+}
+
+// The sharp cut-off's sums of the kept offsets: |kappa| < lambda  <=>  2 |<n, e>| < lambda
+// |e|^2 (no division), with e the offset from the origin of the curvatures (CutoffOrigin): p
+// itself (height 0), or its foot on the PCA plane, `height` along n. The motion is still
+// toward the offset itself.
+template <class G>
+struct KeptSums {
+  G x{}, y{}, z{};
+};
+template <bool kPlane, class G>
+POINTFAIR_INLINE KeptSums<G> kept_pass(const Offsets& d, std::size_t padded, std::size_t first,
+                                       const Vec3& n, double lambda, double height) {
+  const G nx = splat<G>(n.x()), ny = splat<G>(n.y()), nz = splat<G>(n.z());
+  const G half_lambda = splat<G>(0.5 * lambda);
+  const G tiny = splat<G>(std::numeric_limits<double>::denorm_min());
+  const G hx = splat<G>(height * n.x()), hy = splat<G>(height * n.y()), hz = splat<G>(height * n.z());
+  KeptSums<G> s;
+  for (std::size_t j = first; j < padded; j += kLanes) {
+    const G x = load<G>(d.x + j), y = load<G>(d.y + j), z = load<G>(d.z + j);
+    G ex = x, ey = y, ez = z;
+    if constexpr (kPlane) {
+      ex -= hx;
+      ey -= hy;
+      ez -= hz;
+    }
+    const G len2 = ex * ex + ey * ey + ez * ez;
+    const G abs_nd = abs_lanes(nx * ex + ny * ey + nz * ez);
+    // Kept: 2 |<n, e>| < lambda len2, or len2 == 0 (then <n, e> == 0 too); halving both
+    // sides is exact. One comparison says both: adding the smallest subnormal changes no
+    // normal threshold and makes a zero one positive (two masks or'ed together compile to
+    // scalar code).
+    const G threshold = half_lambda * len2 + tiny;
+    s.x += keep_if_less(x, abs_nd, threshold);
+    s.y += keep_if_less(y, abs_nd, threshold);
+    s.z += keep_if_less(z, abs_nd, threshold);
+  }
+  return s;
+}
+template <bool kPlane, class Q>
+POINTFAIR_INLINE KeptSums<Q> kept_sums(const Offsets& d, std::size_t padded, const Vec3& n,
+                                       double lambda, double height) {
+  if constexpr (std::is_same_v<Q, Wide>) {
+    return kept_pass<kPlane, Wide>(d, padded, 0, n, lambda, height);
+  } else {
+    const KeptSums<Pair> lo = kept_pass<kPlane, Pair>(d, padded, 0, n, lambda, height);
+    const KeptSums<Pair> hi = kept_pass<kPlane, Pair>(d, padded, 2, n, lambda, height);
+    return {{lo.x, hi.x}, {lo.y, hi.y}, {lo.z, hi.z}};
+  }
 }
 
 // The robust plane of the first m offsets, with stack work space.
 RobustPlane robust_plane_of(const Offsets& d, std::size_t m, const RobustFrameParams& params) {
   std::array<Vec3, kLocalNeighbors> offsets;
-  for (std::size_t j = 0; j < m; ++j) offsets[j] = Vec3(d.x[j], d.y[j], d.z[j]);
+  for (std::size_t j = 0; j < m; ++j) offsets[j] = -Vec3(d.x[j], d.y[j], d.z[j]);
   std::array<double, kLocalNeighbors + 1> weights;
   std::array<double, kLocalNeighbors + 1> scratch;
   return fit_robust_plane(std::span<const Vec3>(offsets.data(), m), params,
@@ -126,48 +277,39 @@ Kernel kernel_of(const FlowParams& params) {
   return params.cutoff_origin == CutoffOrigin::Plane ? Kernel::SharpPlane : Kernel::SharpPoint;
 }
 
-template <Kernel K>
-Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
-                               std::span<const Vec3> points, const FlowParams& params,
-                               double lambda, Offsets& d) {
+template <Kernel K, class Q>
+POINTFAIR_INLINE Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
+                                                std::span<const Vec3> points,
+                                                const FlowParams& params, double lambda,
+                                                Offsets& d) {
   Displacement out;
   const std::size_t m = neighbors.size();
   if (m == 0) return out;
-  const double px = p.x(), py = p.y(), pz = p.z();
+  const Pair pxy{p.x(), p.y()};
+  const double pz = p.z();
   for (std::size_t j = 0; j < m; ++j) {
     const double* q = points[neighbors[j]].data();
-    d.x[j] = q[0] - px;
-    d.y[j] = q[1] - py;
-    d.z[j] = q[2] - pz;
+    Pair qxy;
+    std::memcpy(&qxy, q, sizeof qxy);
+    const Pair bxy = pxy - qxy;
+    d.x[j] = bxy[0];
+    d.y[j] = bxy[1];
+    d.z[j] = pz - q[2];
   }
-  d.x[m] = d.y[m] = d.z[m] = 0.0;
-  const std::size_t padded = (m + 1) / 2 * 2;
+  const std::size_t padded = (m + kLanes - 1) / kLanes * kLanes;
+  for (std::size_t j = m; j < padded; ++j) d.x[j] = d.y[j] = d.z[j] = 0.0;
 
-  Pair sx{}, sy{}, sz{};
-  Pair sxx{}, sxy{}, sxz{}, syy{}, syz{}, szz{};
-  for (std::size_t j = 0; j < padded; j += 2) {
-    const Pair x = load(d.x + j), y = load(d.y + j), z = load(d.z + j);
-    sx += x;
-    sy += y;
-    sz += z;
-    if constexpr (K != Kernel::Umbrella) {
-      sxx += x * x;
-      sxy += x * y;
-      sxz += x * z;
-      syy += y * y;
-      syz += y * z;
-      szz += z * z;
-    }
-  }
-  const Vec3 sum(lane_sum(sx), lane_sum(sy), lane_sum(sz));
+  const MomentSums<Q> moments = moment_sums<K != Kernel::Umbrella, Q>(d, padded);
+  const LaneSums s = lane_sums(moments.x, moments.y, moments.z, Q{});
+  const Vec3 sum(s.a, s.b, s.c);
   const double inv_m = 1.0 / static_cast<double>(m);
   if constexpr (K == Kernel::Umbrella) {
     // The umbrella operator needs no frame.
-    out.value = params.tau * (sum * inv_m);
+    out.value = params.tau * (-sum * inv_m);
     out.valid = true;
     return out;
   } else {
-    // Covariance of {p} ∪ N about its barycentre p + mean (p itself is the offset 0).
+    // Covariance of {p} ∪ N about its barycentre p - mean (p itself is the offset 0).
     const double inv_count = 1.0 / static_cast<double>(m + 1);
     Vec3 mean = sum * inv_count;
     NormalEstimate estimate;
@@ -176,19 +318,16 @@ Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
       // weighted barycentre; the cut-off below is the same.
       const RobustPlane plane = robust_plane_of(d, m, params.robust);
       estimate = NormalEstimate{plane.normal, plane.valid};
-      mean = plane.mean;
+      mean = -plane.mean;
     } else {
-      Eigen::Matrix3d covariance;
-      covariance(0, 0) = lane_sum(sxx) * inv_count - mean.x() * mean.x();
-      covariance(0, 1) = lane_sum(sxy) * inv_count - mean.x() * mean.y();
-      covariance(0, 2) = lane_sum(sxz) * inv_count - mean.x() * mean.z();
-      covariance(1, 1) = lane_sum(syy) * inv_count - mean.y() * mean.y();
-      covariance(1, 2) = lane_sum(syz) * inv_count - mean.y() * mean.z();
-      covariance(2, 2) = lane_sum(szz) * inv_count - mean.z() * mean.z();
-      covariance(1, 0) = covariance(0, 1);
-      covariance(2, 0) = covariance(0, 2);
-      covariance(2, 1) = covariance(1, 2);
-      estimate = normal_from_covariance(covariance);
+      const LaneSums s1 = lane_sums(moments.xx, moments.xy, moments.xz, moments.yy);
+      const LaneSums s2 = lane_sums(moments.yz, moments.zz, Q{}, Q{});
+      estimate = detail::covariance_normal(s1.a * inv_count - mean.x() * mean.x(),
+                                           s1.b * inv_count - mean.x() * mean.y(),
+                                           s1.c * inv_count - mean.x() * mean.z(),
+                                           s1.d * inv_count - mean.y() * mean.y(),
+                                           s2.a * inv_count - mean.y() * mean.z(),
+                                           s2.b * inv_count - mean.z() * mean.z());
     }
     if (!estimate.valid || m < 2) return out;
     const Vec3& n = estimate.normal;
@@ -210,47 +349,27 @@ Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
         }
       }
     } else {
-      // Sharp cut-off: |kappa| < lambda  <=>  2 |<n, e>| < lambda |e|^2 (no division), with e
-      // the offset from the origin of the curvatures (CutoffOrigin): p itself, or its foot on
-      // the PCA plane through the barycentre p + mean. The motion is still toward d.
-      const Pair nx = splat(n.x()), ny = splat(n.y()), nz = splat(n.z());
-      const Pair half_lambda = splat(0.5 * lambda);
-      const Pair tiny = splat(std::numeric_limits<double>::denorm_min());
+      // Sharp cut-off (kept_pass), from the foot on the PCA plane through the barycentre
+      // p - mean (negated, as the offsets) or from p.
       const double height = K == Kernel::SharpPlane ? n.dot(mean) : 0.0;
-      const Pair hx = splat(height * n.x()), hy = splat(height * n.y()), hz = splat(height * n.z());
-      Pair ax{}, ay{}, az{};
-      for (std::size_t j = 0; j < padded; j += 2) {
-        const Pair x = load(d.x + j), y = load(d.y + j), z = load(d.z + j);
-        Pair ex = x, ey = y, ez = z;
-        if constexpr (K == Kernel::SharpPlane) {
-          ex -= hx;
-          ey -= hy;
-          ez -= hz;
-        }
-        const Pair len2 = ex * ex + ey * ey + ez * ez;
-        const Pair abs_nd = abs_lanes(nx * ex + ny * ey + nz * ez);
-        // Kept: 2 |<n, e>| < lambda len2, or len2 == 0 (then <n, e> == 0 too); halving both
-        // sides is exact. One comparison says both: adding the smallest subnormal changes no
-        // normal threshold and makes a zero one positive (two masks or'ed together compile to
-        // scalar code).
-        const PairBits kept = abs_nd < half_lambda * len2 + tiny;
-        ax += keep_if(x, kept);
-        ay += keep_if(y, kept);
-        az += keep_if(z, kept);
-      }
-      a = Vec3(lane_sum(ax), lane_sum(ay), lane_sum(az));
+      const KeptSums<Q> kept = kept_sums<K == Kernel::SharpPlane, Q>(d, padded, n, lambda, height);
+      const LaneSums sa = lane_sums(kept.x, kept.y, kept.z, Q{});
+      a = Vec3(sa.a, sa.b, sa.c);
     }
-    a *= inv_m;
+    // Back from the negated offsets to the d_j.
+    a = -a * inv_m;
     out.value = params.constrain_normal ? Vec3(params.tau * a.dot(n) * n) : Vec3(params.tau * a);
     out.valid = true;
     return out;
   }
 }
 
-template <Kernel K>
-std::size_t step_rows(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
-                      std::span<const Index> rows, const FlowParams& params, double lambda,
-                      bool gated, std::span<Vec3> next, std::size_t begin, std::size_t end) {
+template <Kernel K, class Q>
+POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
+                                       const Neighborhoods& neighborhoods,
+                                       std::span<const Index> rows, const FlowParams& params,
+                                       double lambda, bool gated, std::span<Vec3> next,
+                                       std::size_t begin, std::size_t end) {
   // Feature gating: the point's curvature decides between the flow K (edges, corners) and
   // the isotropic Laplacian (smooth points), each from the same kernel as the ungated step.
   constexpr Kernel kIsotropic = K == Kernel::IsotropicNormal ? K : Kernel::Umbrella;
@@ -266,13 +385,13 @@ std::size_t step_rows(std::span<const Vec3> current, const Neighborhoods& neighb
       if (!s.valid || nb.size() > kLocalNeighbors) {
         d = {s.displacement, s.valid};
       } else if (s.feature == FeatureClass::Smooth) {
-        d = normal_only ? fast_displacement<Kernel::IsotropicNormal>(p, nb, current, params, lambda, offsets)
-                        : fast_displacement<kIsotropic>(p, nb, current, params, lambda, offsets);
+        d = normal_only ? fast_displacement<Kernel::IsotropicNormal, Q>(p, nb, current, params, lambda, offsets)
+                        : fast_displacement<kIsotropic, Q>(p, nb, current, params, lambda, offsets);
       } else {
-        d = fast_displacement<K>(p, nb, current, params, lambda, offsets);
+        d = fast_displacement<K, Q>(p, nb, current, params, lambda, offsets);
       }
     } else {
-      d = fast_displacement<K>(p, nb, current, params, lambda, offsets);
+      d = fast_displacement<K, Q>(p, nb, current, params, lambda, offsets);
     }
     if (!d.valid) ++degenerate;
     next[r] = p + d.value;
@@ -280,21 +399,83 @@ std::size_t step_rows(std::span<const Vec3> current, const Neighborhoods& neighb
   return degenerate;
 }
 
+// The two instantiations of the row loop: the same source, compiled for the build's baseline
+// and for AVX2. Only code inlined into the AVX2 one uses AVX2; what it calls (the normal, the
+// slow path) is the baseline's.
+template <Kernel K>
+std::size_t step_rows_plain(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+                            std::span<const Index> rows, const FlowParams& params, double lambda,
+                            bool gated, std::span<Vec3> next, std::size_t begin, std::size_t end) {
+  return step_rows<K, Split>(current, neighborhoods, rows, params, lambda, gated, next, begin, end);
+}
+
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define POINTFAIR_HAS_AVX2_KERNEL 1
+template <Kernel K>
+__attribute__((target("avx2"))) std::size_t step_rows_avx2(
+    std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+    std::span<const Index> rows, const FlowParams& params, double lambda, bool gated,
+    std::span<Vec3> next, std::size_t begin, std::size_t end) {
+  return step_rows<K, Wide>(current, neighborhoods, rows, params, lambda, gated, next, begin, end);
+}
+#else
+#define POINTFAIR_HAS_AVX2_KERNEL 0
+#endif
+
+bool cpu_has_avx2() {
+#if POINTFAIR_HAS_AVX2_KERNEL
+  // libgcc's and compiler-rt's answer also checks that the OS saves the 256-bit registers.
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2");
+#else
+  return false;
+#endif
+}
+
+bool avx2_disabled_by_environment() {
+  const char* value = std::getenv("POINTFAIR_NO_AVX2");
+  return value != nullptr && value[0] != '\0' && std::string_view(value) != "0";
+}
+
 }  // namespace
+
+bool step_kernel_available(StepKernel kernel) {
+  static const bool has_avx2 = cpu_has_avx2();
+  return kernel == StepKernel::Plain || has_avx2;
+}
+
+StepKernel default_step_kernel() {
+  static const StepKernel kernel = !avx2_disabled_by_environment() && step_kernel_available(StepKernel::Avx2)
+                                       ? StepKernel::Avx2
+                                       : StepKernel::Plain;
+  return kernel;
+}
 
 StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
                      std::span<const Index> rows, const FlowParams& params, double lambda,
                      std::span<Vec3> next) {
+  return euler_step(current, neighborhoods, rows, params, lambda, next, default_step_kernel());
+}
+
+StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+                     std::span<const Index> rows, const FlowParams& params, double lambda,
+                     std::span<Vec3> next, StepKernel simd) {
   const std::size_t n = neighborhoods.size();
   require(next.size() == n, "euler_step: next must hold one position per neighbourhood row");
   require(rows.empty() || rows.size() == n, "euler_step: rows must match the neighbourhoods");
   require(!rows.empty() || current.size() == n, "euler_step: one neighbourhood row per point");
+  require(step_kernel_available(simd), "euler_step: the AVX2 kernel is not available here");
   std::atomic<std::size_t> degenerate_total{0};
   const bool gated = params.feature_gated && params.features.mode != FeatureMode::None;
   const Kernel kernel = kernel_of(params);
+  const bool avx2 = simd == StepKernel::Avx2;
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
     const auto run = [&]<Kernel K>() {
-      return step_rows<K>(current, neighborhoods, rows, params, lambda, gated, next, begin, end);
+#if POINTFAIR_HAS_AVX2_KERNEL
+      if (avx2)
+        return step_rows_avx2<K>(current, neighborhoods, rows, params, lambda, gated, next, begin, end);
+#endif
+      return step_rows_plain<K>(current, neighborhoods, rows, params, lambda, gated, next, begin, end);
     };
     std::size_t degenerate = 0;
     switch (kernel) {

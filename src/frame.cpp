@@ -5,6 +5,8 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "covariance_normal.hpp"
+
 namespace pointfair {
 
 Frame frame_from_covariance(const Eigen::Matrix3d& covariance, const Vec3& centroid) {
@@ -66,58 +68,8 @@ Frame frame_from_covariance(const Eigen::Matrix3d& covariance, const Vec3& centr
 }
 
 NormalEstimate normal_from_covariance(const Eigen::Matrix3d& covariance) {
-  const auto fallback = [&covariance] {
-    const Frame f = frame_from_covariance(covariance, Vec3::Zero());
-    return NormalEstimate{f.normal, f.valid};
-  };
-  const double a00 = covariance(0, 0), a01 = covariance(0, 1), a02 = covariance(0, 2);
-  const double a11 = covariance(1, 1), a12 = covariance(1, 2), a22 = covariance(2, 2);
-  // The characteristic polynomial det(A - tI) = det - m2 t + tr t^2 - t^3 (m2: the sum of the
-  // principal 2x2 minors) is positive, decreasing and convex left of the smallest eigenvalue
-  // c0 of a positive semi-definite A, so Newton's method from t = 0 climbs to c0 without
-  // overshooting. No trigonometry (acos and two cos cost more than the whole iteration), no
-  // scaling (every test below is relative), and c0 comes out to a few ulps of itself, where
-  // the trigonometric form q + 2p cos(..) loses digits to cancellation when c0 << c1.
-  const double tr = a00 + a11 + a22;
-  if (!(tr > 0.0) || !std::isfinite(tr)) return fallback();
-  const double m2 = (a00 * a11 - a01 * a01) + (a00 * a22 - a02 * a02) + (a11 * a22 - a12 * a12);
-  const double det = a00 * (a11 * a22 - a12 * a12) - a01 * (a01 * a22 - a12 * a02) +
-                     a02 * (a01 * a12 - a11 * a02);
-  double c0 = 0.0;
-  // Laguerre's method: for a polynomial with only real roots it converges monotonically to
-  // the nearest root from any start, cubically near it, and from far away it takes much
-  // larger steps than Newton's: two or three steps here where Newton's takes seven. A
-  // (nearly) repeated c0 converges slowly and is sent to the fallback below anyway, so 64
-  // steps bound the cost. With p = det(A - tI) of degree 3 the step is
-  //   3 p / (p' - sqrt(2 (2 p'^2 - 3 p p''))).
-  for (int iteration = 0; iteration < 64; ++iteration) {
-    const double f = ((tr - c0) * c0 - m2) * c0 + det;
-    const double slope = (2.0 * tr - 3.0 * c0) * c0 - m2;
-    const double bend = 2.0 * tr - 6.0 * c0;
-    if (!(slope < 0.0)) break;
-    const double root = std::sqrt(std::max(0.0, 2.0 * (2.0 * slope * slope - 3.0 * f * bend)));
-    const double next = c0 - 3.0 * f / (slope - root);
-    if (!(next > c0)) break;  // converged: rounding noise no longer moves it up
-    c0 = next;
-  }
-  // The other two eigenvalues: c1 + c2 = tr - c0 and c1 c2 = m2 - c0 (c1 + c2).
-  const double s = tr - c0;
-  const double product = m2 - c0 * s;
-  const double root = std::sqrt(std::max(0.0, s * s - 4.0 * product));
-  const double c1 = 0.5 * (s + root);
-  const double c2 = 0.5 * (s - root);
-  if (!(c2 - c0 > 1e-4 * c1) || !(c2 > 1e-6 * c1)) return fallback();
-  // The rows of a - c0 I span the plane orthogonal to the normal: the largest cross product of
-  // two of them is the most accurate normal direction.
-  const Vec3 r0(a00 - c0, a01, a02);
-  const Vec3 r1(a01, a11 - c0, a12);
-  const Vec3 r2(a02, a12, a22 - c0);
-  const Vec3 x01 = r0.cross(r1), x02 = r0.cross(r2), x12 = r1.cross(r2);
-  const double n01 = x01.squaredNorm(), n02 = x02.squaredNorm(), n12 = x12.squaredNorm();
-  const Vec3& best = n01 >= n02 ? (n01 >= n12 ? x01 : x12) : (n02 >= n12 ? x02 : x12);
-  const double best_norm2 = std::max(n01, std::max(n02, n12));
-  if (!(best_norm2 > 0.0)) return fallback();
-  return NormalEstimate{best / std::sqrt(best_norm2), true};
+  return detail::covariance_normal(covariance(0, 0), covariance(0, 1), covariance(0, 2),
+                                   covariance(1, 1), covariance(1, 2), covariance(2, 2));
 }
 
 Frame compute_frame(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points) {

@@ -7,10 +7,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <numeric>
 #include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "pointfair/kd_tree.hpp"
@@ -342,6 +344,90 @@ TEST(EulerStep, GatedFlowDiffersFromUngated) {
     }
   }
   EXPECT_GT(differ, 100);
+}
+
+TEST(EulerStep, Avx2KernelGivesThePlainKernelsBits) {
+  // Both kernels sum the same lanes in the same order and neither fuses multiply-adds, so
+  // every configuration must agree to the bit: neighbour counts that are and are not
+  // multiples of four (k = 16, 13, 5, and eps-limited lists of any length), twin points (zero
+  // offsets), every cut-off, both origins, the robust plane, normal-only motion and gating.
+  if (!step_kernel_available(StepKernel::Avx2)) GTEST_SKIP() << "no AVX2 on this CPU";
+  std::vector<Vec3> points = test::noisy_cube(3000, 0.01, 11);
+  for (std::size_t i = 0; i < 200; ++i) points.push_back(points[i * 7]);
+  const double diag = bounding_box_diagonal(points);
+  const Neighborhoods k16 = build_neighborhoods(points, knn(16));
+  NeighborParams limited = knn(24);
+  limited.eps = 0.6 * k16.eps;
+  const std::vector<std::pair<const char*, Neighborhoods>> lists = {
+      {"k16", k16},
+      {"k13", build_neighborhoods(points, knn(13))},
+      {"k5", build_neighborhoods(points, knn(5))},
+      {"eps-limited k24", build_neighborhoods(points, limited)},
+  };
+  std::size_t counts_not_multiple_of_4 = 0;
+  for (std::size_t r = 0; r < lists[3].second.size(); ++r)
+    counts_not_multiple_of_4 += lists[3].second.of(r).size() % 4 != 0;
+  ASSERT_GT(counts_not_multiple_of_4, 100u);
+  const double lambda = auto_lambda(points, k16, 2.0);
+  struct Case {
+    const char* name;
+    Flow flow;
+    Cutoff cutoff;
+    CutoffOrigin origin;
+    NormalEstimator estimator;
+    bool normal_only;
+    bool gated;
+  };
+  const Case cases[] = {
+      {"isotropic", Flow::Isotropic, Cutoff::Sharp, CutoffOrigin::Point, NormalEstimator::Pca, false, false},
+      {"isotropic normal-only", Flow::Isotropic, Cutoff::Sharp, CutoffOrigin::Point, NormalEstimator::Pca, true, false},
+      {"sharp", Flow::Anisotropic, Cutoff::Sharp, CutoffOrigin::Point, NormalEstimator::Pca, false, false},
+      {"sharp plane", Flow::Anisotropic, Cutoff::Sharp, CutoffOrigin::Plane, NormalEstimator::Pca, false, false},
+      {"continuous", Flow::Anisotropic, Cutoff::Continuous, CutoffOrigin::Point, NormalEstimator::Pca, false, false},
+      {"continuous plane", Flow::Anisotropic, Cutoff::Continuous, CutoffOrigin::Plane, NormalEstimator::Pca, false, false},
+      {"sharp robust plane", Flow::Anisotropic, Cutoff::Sharp, CutoffOrigin::Plane, NormalEstimator::Robust, false, false},
+      {"sharp normal-only", Flow::Anisotropic, Cutoff::Sharp, CutoffOrigin::Point, NormalEstimator::Pca, true, false},
+      {"sharp gated", Flow::Anisotropic, Cutoff::Sharp, CutoffOrigin::Point, NormalEstimator::Pca, false, true},
+  };
+  for (const auto& [list_name, n] : lists) {
+    for (const Case& c : cases) {
+      FlowParams params;
+      params.flow = c.flow;
+      params.cutoff = c.cutoff;
+      params.cutoff_origin = c.origin;
+      params.normal_estimator = c.estimator;
+      params.constrain_normal = c.normal_only;
+      params.feature_gated = c.gated;
+      params.features.mode = FeatureMode::EdgeQuotient;
+      std::vector<Vec3> plain(points.size()), avx2(points.size());
+      const StepStats plain_stats = euler_step(points, n, {}, params, lambda, plain, StepKernel::Plain);
+      const StepStats avx2_stats = euler_step(points, n, {}, params, lambda, avx2, StepKernel::Avx2);
+      EXPECT_TRUE(test::bitwise_equal(plain, avx2)) << list_name << " " << c.name;
+      EXPECT_EQ(plain_stats.degenerate, avx2_stats.degenerate) << list_name << " " << c.name;
+      EXPECT_GT(test::max_distance(plain, points), 1e-3 * diag) << list_name << " " << c.name;
+    }
+  }
+}
+
+TEST(EulerStep, KernelChoiceFollowsTheCpuAndTheEnvironment) {
+  // ctest runs the flow tests once more with POINTFAIR_NO_AVX2=1 (EulerStepPlainKernel).
+  const char* off = std::getenv("POINTFAIR_NO_AVX2");
+  const bool disabled = off != nullptr && off[0] != '\0' && std::string(off) != "0";
+  const StepKernel expected =
+      !disabled && step_kernel_available(StepKernel::Avx2) ? StepKernel::Avx2 : StepKernel::Plain;
+  EXPECT_EQ(default_step_kernel(), expected);
+  EXPECT_TRUE(step_kernel_available(StepKernel::Plain));
+  // The default overload is the one with default_step_kernel().
+  const std::vector<Vec3> points = test::noisy_cube(500, 0.01, 12);
+  const Neighborhoods n = build_neighborhoods(points, knn(16));
+  const FlowParams params;
+  std::vector<Vec3> chosen(points.size()), explicit_kernel(points.size());
+  euler_step(points, n, {}, params, 10.0, chosen);
+  euler_step(points, n, {}, params, 10.0, explicit_kernel, default_step_kernel());
+  EXPECT_TRUE(test::bitwise_equal(chosen, explicit_kernel));
+  if (!step_kernel_available(StepKernel::Avx2)) {
+    EXPECT_THROW(euler_step(points, n, {}, params, 10.0, chosen, StepKernel::Avx2), ParamError);
+  }
 }
 
 TEST(EulerStep, RowSubsetEqualsFullStep) {

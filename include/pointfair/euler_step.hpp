@@ -83,6 +83,29 @@ StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighbo
                      std::span<const Index> rows, const FlowParams& params, double lambda,
                      std::span<Vec3> next);
 
+/// The instructions the step's hot loop runs on. Both give the same bits: the sums run over
+/// four lanes in the same order in either, and neither fuses a multiply into an add.
+enum class StepKernel {
+  /// The baseline of the build's target (SSE2 on x86-64): runs on any machine.
+  Plain,
+  /// 256-bit AVX2 vectors (x86-64 with GCC or Clang), chosen at run time.
+  Avx2,
+};
+
+/// Whether this build and this CPU can run `kernel` (Plain always can).
+bool step_kernel_available(StepKernel kernel);
+
+/// The kernel euler_step uses: Avx2 where available, unless the environment variable
+/// POINTFAIR_NO_AVX2 is set to anything but empty or "0". Decided once per process, from
+/// nothing but the CPU and that variable, so every step, thread and tile uses the same one.
+StepKernel default_step_kernel();
+
+/// euler_step with the hot loop on `kernel` (tests and benchmarks compare them); a kernel
+/// that is not available is a parameter error.
+StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+                     std::span<const Index> rows, const FlowParams& params, double lambda,
+                     std::span<Vec3> next, StepKernel kernel);
+
 /// The automatic lambda (see FlowParams::lambda) of `points` with `neighborhoods`, measured on
 /// the points with original index 0, s, 2s, ... (s = max(1, n / 8192)). `row_of[i]` is where
 /// original point i is stored (its row and position); empty means i itself.
