@@ -452,28 +452,34 @@ CellGrid build_cell_grid(std::span<const Vec3> points, int k, double eps) {
 
 namespace {
 
-// The queries of a search sorted by grid position, grouped by cell.
+// The queries of a search sorted by grid position, grouped by cell. For every point (the
+// build's usual case) entry e is grid position e, its row row_of[order[e]] (order[e] without
+// row_of) and query cell c grid cell c: computed when asked rather than stored, which keeps
+// 8 bytes a point off the build's peak memory.
 struct Queries {
-  std::vector<Index> pos;    // sorted position of the query point
-  std::vector<Index> row;    // its output row
-  std::vector<Index> cell;   // query cells: grid cell index ...
-  std::vector<Index> first;  // ... and their entries first[c] .. first[c+1]-1
+  const CellGrid* every = nullptr;  // every point of this grid, or the lists below
+  std::span<const Index> row_of;    // with `every`: the row of each point (empty: itself)
+  std::vector<Index> pos_list;      // sorted position of the query point
+  std::vector<Index> row_list;      // its output row
+  std::vector<Index> cell_list;     // query cells: grid cell index ...
+  std::vector<Index> first_list;    // ... and their entries first[c] .. first[c+1]-1
+
+  std::size_t size() const { return every ? every->size() : pos_list.size(); }
+  std::size_t cells() const { return every ? every->keys.size() : cell_list.size(); }
+  std::size_t pos(std::size_t e) const { return every ? e : pos_list[e]; }
+  Index row(std::size_t e) const {
+    if (!every) return row_list[e];
+    const Index point = every->order[e];
+    return row_of.empty() ? point : row_of[point];
+  }
+  std::size_t cell(std::size_t c) const { return every ? c : cell_list[c]; }
+  Index first(std::size_t c) const { return every ? every->starts[c] : first_list[c]; }
 };
 
 Queries every_point(const CellGrid& g, std::span<const Index> row_of) {
   Queries q;
-  const std::size_t n = g.size();
-  q.pos.resize(n);
-  q.row.resize(n);
-  parallel_for(n, [&](std::size_t b, std::size_t e) {
-    for (std::size_t s = b; s < e; ++s) {
-      q.pos[s] = static_cast<Index>(s);
-      q.row[s] = row_of.empty() ? g.order[s] : row_of[g.order[s]];
-    }
-  }, 16384);
-  q.cell.resize(g.keys.size());
-  for (std::size_t c = 0; c < q.cell.size(); ++c) q.cell[c] = static_cast<Index>(c);
-  q.first = g.starts;
+  q.every = &g;
+  q.row_of = row_of;
   return q;
 }
 
@@ -485,23 +491,23 @@ Queries some_points(const CellGrid& g, std::span<const Index> queries) {
   }, 16384);
   std::vector<std::uint64_t> keys(queries.size());
   Queries q;
-  q.row.resize(queries.size());
+  q.row_list.resize(queries.size());
   for (std::size_t r = 0; r < queries.size(); ++r) {
     require(queries[r] < n, "query " + std::to_string(queries[r]) + " is not a point index");
     keys[r] = position_of[queries[r]];
-    q.row[r] = static_cast<Index>(r);
+    q.row_list[r] = static_cast<Index>(r);
   }
-  radix_sort(keys, q.row, n <= 1 ? 0 : static_cast<int>(std::bit_width(static_cast<std::uint64_t>(n - 1))));
-  q.pos.assign(keys.begin(), keys.end());
+  radix_sort(keys, q.row_list, n <= 1 ? 0 : static_cast<int>(std::bit_width(static_cast<std::uint64_t>(n - 1))));
+  q.pos_list.assign(keys.begin(), keys.end());
   std::size_t c = 0;
-  for (std::size_t e = 0; e < q.pos.size(); ++e) {
-    while (g.starts[c + 1] <= q.pos[e]) ++c;
-    if (q.cell.empty() || q.cell.back() != c) {
-      q.cell.push_back(static_cast<Index>(c));
-      q.first.push_back(static_cast<Index>(e));
+  for (std::size_t e = 0; e < q.pos_list.size(); ++e) {
+    while (g.starts[c + 1] <= q.pos_list[e]) ++c;
+    if (q.cell_list.empty() || q.cell_list.back() != c) {
+      q.cell_list.push_back(static_cast<Index>(c));
+      q.first_list.push_back(static_cast<Index>(e));
     }
   }
-  q.first.push_back(static_cast<Index>(q.pos.size()));
+  q.first_list.push_back(static_cast<Index>(q.pos_list.size()));
   return q;
 }
 
@@ -565,14 +571,14 @@ class Search {
     std::size_t cursor[9];
     std::fill(cursor, cursor + 9, kNoCursor);
     for (std::size_t qc = cb; qc < ce; ++qc) {
-      const std::size_t c = q_.cell[qc];
+      const std::size_t c = q_.cell(qc);
       const std::uint64_t key = g_.keys[c];
       const auto d0 = static_cast<std::uint64_t>(g_.dims[0]), d1 = static_cast<std::uint64_t>(g_.dims[1]);
       const std::int64_t cell[3] = {static_cast<std::int64_t>(key % d0),
                                     static_cast<std::int64_t>((key / d0) % d1),
                                     static_cast<std::int64_t>(key / (d0 * d1))};
       s.pending.clear();
-      for (Index e = q_.first[qc]; e < q_.first[qc + 1]; ++e) s.pending.push_back(e);
+      for (Index e = q_.first(qc); e < q_.first(qc + 1); ++e) s.pending.push_back(e);
       for (std::int64_t ring = 1; ring <= kMaxRing && !s.pending.empty(); ++ring) {
         if (!gather(s.block, cell, ring, ring == 1 ? cursor : nullptr)) break;
         s.still.clear();
@@ -598,7 +604,7 @@ class Search {
       std::vector<Entry> best(static_cast<std::size_t>(want_) + 1);
       std::vector<double> d2;
       for (std::size_t i = b; i < e; ++i) {
-        const std::size_t pos = q_.pos[entries[i]];
+        const std::size_t pos = q_.pos(entries[i]);
         const Index self = g_.order[pos];
         int found = 0;
         if (tree != nullptr) {
@@ -617,7 +623,7 @@ class Search {
           }
           found = nearest.count();
         }
-        write_row(q_.row[entries[i]], self, best.data() + 1, found);
+        write_row(q_.row(entries[i]), self, best.data() + 1, found);
       }
     }, 1);
   }
@@ -697,7 +703,7 @@ class Search {
   // Searches query entry e among the gathered block (and, if needed, the cells of its reach
   // beyond it); writes its row and returns true once the result is certainly exact.
   bool answer(Scratch& s, Index e, const std::int64_t* cell, std::int64_t ring) const {
-    const std::size_t pos = q_.pos[e];
+    const std::size_t pos = q_.pos(e);
     const double q[3] = {g_.x[pos], g_.y[pos], g_.z[pos]};
     Candidates& block = s.block;
     block.distances(q[0], q[1], q[2]);
@@ -746,7 +752,7 @@ class Search {
 
     if (!within_block(q, cell, ring, nearest) && !extend(s, q, cell, ring, nearest)) return false;
     if (nearest.full()) s.guess = 1.15 * nearest.last();
-    write_row(q_.row[e], g_.order[pos], nearest.entries(), nearest.count());
+    write_row(q_.row(e), g_.order[pos], nearest.entries(), nearest.count());
     return true;
   }
 
@@ -840,15 +846,15 @@ Neighborhoods search(const CellGrid& g, const Queries& q, int k, double eps, con
   Neighborhoods out;
   out.stride = k;
   out.eps = eps;
-  out.indices.assign(q.pos.size() * static_cast<std::size_t>(k), 0);
-  out.counts.assign(q.pos.size(), 0);
-  std::vector<std::uint8_t> unresolved(q.pos.size(), 0);
-  require(last_d2.empty() || last_d2.size() == q.pos.size(), "last_d2 must hold one value per row");
+  out.indices.assign(q.size() * static_cast<std::size_t>(k), 0);
+  out.counts.assign(q.size(), 0);
+  std::vector<std::uint8_t> unresolved(q.size(), 0);
+  require(last_d2.empty() || last_d2.size() == q.size(), "last_d2 must hold one value per row");
   const Search search(g, q, k, eps, out, last_d2, unresolved);
   // About 2048 queries a task.
-  const std::size_t cells = q.cell.size();
+  const std::size_t cells = q.cells();
   const std::size_t grain =
-      std::max<std::size_t>(1, 2048 * cells / std::max<std::size_t>(1, q.pos.size()));
+      std::max<std::size_t>(1, 2048 * cells / std::max<std::size_t>(1, q.size()));
   parallel_for(cells, [&](std::size_t b, std::size_t e) { search.run(b, e); }, grain);
   std::vector<Index> rest;
   for (std::size_t e = 0; e < unresolved.size(); ++e)

@@ -60,11 +60,13 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
   // The steps run on the cloud stored in Morton order (neighbours near in memory). The
   // neighbourhoods are still built in the caller's order, so that their canonical tie rule
   // (ties by the smaller index) refers to the caller's indices; relabelling changes no bit of
-  // the result (see spatial_order.hpp).
+  // the result (see spatial_order.hpp). They are built first and then relabelled and moved to
+  // the Morton rows in place: the order and its inverse do not exist yet while the build holds
+  // its grid, which keeps the peak memory of the whole run at the build's own.
+  Neighborhoods neighborhoods = build_neighborhoods(first_source, params.neighbors);
   const std::vector<Index> order = spatial_order(positions);
   const std::vector<Index> row_of = inverse_permutation(order);
-  Neighborhoods neighborhoods =
-      build_reordered_neighborhoods(first_source, params.neighbors, order, row_of);
+  permute_neighborhoods_in_place(neighborhoods, order, row_of);
   report.eps = neighborhoods.eps;
   // `positions` itself holds the current step (reordered in place: no copy), `next` the
   // other buffer. Whatever happens, the caller gets back the last completed step in its order.
