@@ -277,14 +277,23 @@ Kernel kernel_of(const FlowParams& params) {
   return params.cutoff_origin == CutoffOrigin::Plane ? Kernel::SharpPlane : Kernel::SharpPoint;
 }
 
+// What the cut-off needs of a point once its offsets are gathered: their (negated) sum, the
+// count, and (but for the umbrella operator) the covariance about the barycentre p - mean.
+struct Prepared {
+  Vec3 sum = Vec3::Zero();
+  Vec3 mean = Vec3::Zero();
+  std::size_t m = 0;
+  std::size_t padded = 0;
+  detail::SymmetricCovariance covariance;
+};
+
+// Gathers the m > 0 neighbour offsets of p into d and sums them.
 template <Kernel K, class Q>
-POINTFAIR_INLINE Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
-                                                std::span<const Vec3> points,
-                                                const FlowParams& params, double lambda,
-                                                Offsets& d) {
-  Displacement out;
+POINTFAIR_INLINE Prepared prepare(const Vec3& p, std::span<const Index> neighbors,
+                                  std::span<const Vec3> points, Offsets& d) {
+  Prepared s;
   const std::size_t m = neighbors.size();
-  if (m == 0) return out;
+  s.m = m;
   const Pair pxy{p.x(), p.y()};
   const double pz = p.z();
   for (std::size_t j = 0; j < m; ++j) {
@@ -296,71 +305,93 @@ POINTFAIR_INLINE Displacement fast_displacement(const Vec3& p, std::span<const I
     d.y[j] = bxy[1];
     d.z[j] = pz - q[2];
   }
-  const std::size_t padded = (m + kLanes - 1) / kLanes * kLanes;
-  for (std::size_t j = m; j < padded; ++j) d.x[j] = d.y[j] = d.z[j] = 0.0;
+  s.padded = (m + kLanes - 1) / kLanes * kLanes;
+  for (std::size_t j = m; j < s.padded; ++j) d.x[j] = d.y[j] = d.z[j] = 0.0;
 
-  const MomentSums<Q> moments = moment_sums<K != Kernel::Umbrella, Q>(d, padded);
-  const LaneSums s = lane_sums(moments.x, moments.y, moments.z, Q{});
-  const Vec3 sum(s.a, s.b, s.c);
-  const double inv_m = 1.0 / static_cast<double>(m);
-  if constexpr (K == Kernel::Umbrella) {
-    // The umbrella operator needs no frame.
-    out.value = params.tau * (-sum * inv_m);
-    out.valid = true;
-    return out;
-  } else {
+  const MomentSums<Q> moments = moment_sums<K != Kernel::Umbrella, Q>(d, s.padded);
+  const LaneSums sums = lane_sums(moments.x, moments.y, moments.z, Q{});
+  // The negated sum of the d_j (see above).
+  s.sum = Vec3(sums.a, sums.b, sums.c);
+  if constexpr (K != Kernel::Umbrella) {
     // Covariance of {p} ∪ N about its barycentre p - mean (p itself is the offset 0).
     const double inv_count = 1.0 / static_cast<double>(m + 1);
-    Vec3 mean = sum * inv_count;
-    NormalEstimate estimate;
+    const Vec3 mean = s.sum * inv_count;
+    s.mean = mean;
+    const LaneSums s1 = lane_sums(moments.xx, moments.xy, moments.xz, moments.yy);
+    const LaneSums s2 = lane_sums(moments.yz, moments.zz, Q{}, Q{});
+    s.covariance = detail::symmetric_covariance(s1.a * inv_count - mean.x() * mean.x(),
+                                                s1.b * inv_count - mean.x() * mean.y(),
+                                                s1.c * inv_count - mean.x() * mean.z(),
+                                                s1.d * inv_count - mean.y() * mean.y(),
+                                                s2.a * inv_count - mean.y() * mean.z(),
+                                                s2.b * inv_count - mean.z() * mean.z());
+  }
+  return s;
+}
+
+// The motion of a prepared point with the plane (normal, and the barycentre p - mean).
+template <Kernel K, class Q>
+POINTFAIR_INLINE Displacement finish(const Prepared& s, const Vec3& mean,
+                                     const NormalEstimate& estimate, const FlowParams& params,
+                                     double lambda, const Offsets& d) {
+  Displacement out;
+  const std::size_t m = s.m;
+  if (!estimate.valid || m < 2) return out;
+  const Vec3& n = estimate.normal;
+  Vec3 a = Vec3::Zero();
+  if constexpr (K == Kernel::IsotropicNormal) {
+    a = s.sum;
+  } else if constexpr (K == Kernel::Continuous) {
+    const Vec3 shift = params.cutoff_origin == CutoffOrigin::Plane ? Vec3(n.dot(mean) * n)
+                                                                   : Vec3(Vec3::Zero());
+    for (std::size_t j = 0; j < m; ++j) {
+      const Vec3 dj(d.x[j], d.y[j], d.z[j]);
+      const Vec3 e = dj - shift;
+      const double len2 = e.squaredNorm();
+      const double twice_nd = 2.0 * std::abs(n.dot(e));
+      if (twice_nd < lambda * len2 || len2 == 0.0) {
+        a += dj;
+      } else {
+        a += cutoff_weight(twice_nd / len2, lambda, Cutoff::Continuous) * dj;
+      }
+    }
+  } else {
+    // Sharp cut-off (kept_pass), from the foot on the PCA plane through the barycentre
+    // p - mean (negated, as the offsets) or from p.
+    const double height = K == Kernel::SharpPlane ? n.dot(mean) : 0.0;
+    const KeptSums<Q> kept = kept_sums<K == Kernel::SharpPlane, Q>(d, s.padded, n, lambda, height);
+    const LaneSums sa = lane_sums(kept.x, kept.y, kept.z, Q{});
+    a = Vec3(sa.a, sa.b, sa.c);
+  }
+  // Back from the negated offsets to the d_j.
+  a = -a * (1.0 / static_cast<double>(m));
+  out.value = params.constrain_normal ? Vec3(params.tau * a.dot(n) * n) : Vec3(params.tau * a);
+  out.valid = true;
+  return out;
+}
+
+// The motion of one point.
+template <Kernel K, class Q>
+POINTFAIR_INLINE Displacement fast_displacement(const Vec3& p, std::span<const Index> neighbors,
+                                                std::span<const Vec3> points,
+                                                const FlowParams& params, double lambda,
+                                                Offsets& d) {
+  if (neighbors.empty()) return {};
+  const Prepared s = prepare<K, Q>(p, neighbors, points, d);
+  if constexpr (K == Kernel::Umbrella) {
+    // The umbrella operator needs no frame.
+    return {params.tau * (-s.sum * (1.0 / static_cast<double>(s.m))), true};
+  } else {
     if (params.normal_estimator == NormalEstimator::Robust) {
       // The robust plane (robust_frame.hpp) instead of the PCA plane: its normal and its
-      // weighted barycentre; the cut-off below is the same.
-      const RobustPlane plane = robust_plane_of(d, m, params.robust);
-      estimate = NormalEstimate{plane.normal, plane.valid};
-      mean = -plane.mean;
-    } else {
-      const LaneSums s1 = lane_sums(moments.xx, moments.xy, moments.xz, moments.yy);
-      const LaneSums s2 = lane_sums(moments.yz, moments.zz, Q{}, Q{});
-      estimate = detail::covariance_normal(s1.a * inv_count - mean.x() * mean.x(),
-                                           s1.b * inv_count - mean.x() * mean.y(),
-                                           s1.c * inv_count - mean.x() * mean.z(),
-                                           s1.d * inv_count - mean.y() * mean.y(),
-                                           s2.a * inv_count - mean.y() * mean.z(),
-                                           s2.b * inv_count - mean.z() * mean.z());
+      // weighted barycentre; the cut-off is the same.
+      const RobustPlane plane = robust_plane_of(d, s.m, params.robust);
+      return finish<K, Q>(s, -plane.mean, NormalEstimate{plane.normal, plane.valid}, params,
+                          lambda, d);
     }
-    if (!estimate.valid || m < 2) return out;
-    const Vec3& n = estimate.normal;
-    Vec3 a = Vec3::Zero();
-    if constexpr (K == Kernel::IsotropicNormal) {
-      a = sum;
-    } else if constexpr (K == Kernel::Continuous) {
-      const Vec3 shift = params.cutoff_origin == CutoffOrigin::Plane ? Vec3(n.dot(mean) * n)
-                                                                     : Vec3(Vec3::Zero());
-      for (std::size_t j = 0; j < m; ++j) {
-        const Vec3 dj(d.x[j], d.y[j], d.z[j]);
-        const Vec3 e = dj - shift;
-        const double len2 = e.squaredNorm();
-        const double twice_nd = 2.0 * std::abs(n.dot(e));
-        if (twice_nd < lambda * len2 || len2 == 0.0) {
-          a += dj;
-        } else {
-          a += cutoff_weight(twice_nd / len2, lambda, Cutoff::Continuous) * dj;
-        }
-      }
-    } else {
-      // Sharp cut-off (kept_pass), from the foot on the PCA plane through the barycentre
-      // p - mean (negated, as the offsets) or from p.
-      const double height = K == Kernel::SharpPlane ? n.dot(mean) : 0.0;
-      const KeptSums<Q> kept = kept_sums<K == Kernel::SharpPlane, Q>(d, padded, n, lambda, height);
-      const LaneSums sa = lane_sums(kept.x, kept.y, kept.z, Q{});
-      a = Vec3(sa.a, sa.b, sa.c);
-    }
-    // Back from the negated offsets to the d_j.
-    a = -a * inv_m;
-    out.value = params.constrain_normal ? Vec3(params.tau * a.dot(n) * n) : Vec3(params.tau * a);
-    out.valid = true;
-    return out;
+    const detail::SymmetricCovariance& c = s.covariance;
+    return finish<K, Q>(s, s.mean, detail::covariance_normal(c.a00, c.a01, c.a02, c.a11, c.a12, c.a22),
+                        params, lambda, d);
   }
 }
 
@@ -375,33 +406,75 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
   constexpr Kernel kIsotropic = K == Kernel::IsotropicNormal ? K : Kernel::Umbrella;
   const bool normal_only = params.constrain_normal;
   std::size_t degenerate = 0;
-  Offsets offsets;
-  for (std::size_t r = begin; r < end; ++r) {
-    const Vec3& p = current[rows.empty() ? r : rows[r]];
-    const auto nb = neighborhoods.of(r);
-    Displacement d;
-    if (gated || nb.size() > kLocalNeighbors) {
-      const PointState s = evaluate_point(p, nb, current, params, lambda, gated);
-      if (!s.valid || nb.size() > kLocalNeighbors) {
-        d = {s.displacement, s.valid};
-      } else if (s.feature == FeatureClass::Smooth) {
-        d = normal_only ? fast_displacement<Kernel::IsotropicNormal, Q>(p, nb, current, params, lambda, offsets)
-                        : fast_displacement<kIsotropic, Q>(p, nb, current, params, lambda, offsets);
+  const bool batched = K != Kernel::Umbrella && !gated && params.normal_estimator == NormalEstimator::Pca;
+  if (!batched) {
+    Offsets offsets;
+    for (std::size_t r = begin; r < end; ++r) {
+      const Vec3& p = current[rows.empty() ? r : rows[r]];
+      const auto nb = neighborhoods.of(r);
+      Displacement d;
+      if (gated || nb.size() > kLocalNeighbors) {
+        const PointState s = evaluate_point(p, nb, current, params, lambda, gated);
+        if (!s.valid || nb.size() > kLocalNeighbors) {
+          d = {s.displacement, s.valid};
+        } else if (s.feature == FeatureClass::Smooth) {
+          d = normal_only ? fast_displacement<Kernel::IsotropicNormal, Q>(p, nb, current, params, lambda, offsets)
+                          : fast_displacement<kIsotropic, Q>(p, nb, current, params, lambda, offsets);
+        } else {
+          d = fast_displacement<K, Q>(p, nb, current, params, lambda, offsets);
+        }
       } else {
         d = fast_displacement<K, Q>(p, nb, current, params, lambda, offsets);
       }
-    } else {
-      d = fast_displacement<K, Q>(p, nb, current, params, lambda, offsets);
+      if (!d.valid) ++degenerate;
+      next[r] = p + d.value;
     }
-    if (!d.valid) ++degenerate;
-    next[r] = p + d.value;
+    return degenerate;
+  }
+  // PCA normals, no gating: kBatch points at a time, their normals' iterations interleaved
+  // (detail::smallest_eigenvalues). Each point's result is the one it gets alone, to the bit.
+  constexpr std::size_t kBatch = 4;
+  Offsets offsets[kBatch];
+  Prepared prepared[kBatch];
+  detail::SymmetricCovariance covariances[kBatch];
+  std::size_t batch_rows[kBatch];
+  for (std::size_t r = begin; r < end;) {
+    std::size_t count = 0;
+    for (; r < end && count < kBatch; ++r) {
+      const Vec3& p = current[rows.empty() ? r : rows[r]];
+      const auto nb = neighborhoods.of(r);
+      if (nb.empty() || nb.size() > kLocalNeighbors) {
+        Displacement d;
+        if (!nb.empty()) {
+          const PointState s = evaluate_point(p, nb, current, params, lambda, false);
+          d = {s.displacement, s.valid};
+        }
+        if (!d.valid) ++degenerate;
+        next[r] = p + d.value;
+        continue;
+      }
+      prepared[count] = prepare<K, Q>(p, nb, current, offsets[count]);
+      covariances[count] = prepared[count].covariance;
+      batch_rows[count] = r;
+      ++count;
+    }
+    double c0[kBatch];
+    detail::smallest_eigenvalues<kBatch>(covariances, count, c0);
+    for (std::size_t i = 0; i < count; ++i) {
+      const std::size_t row = batch_rows[i];
+      const Vec3& p = current[rows.empty() ? row : rows[row]];
+      const NormalEstimate estimate = detail::normal_from_smallest_eigenvalue(covariances[i], c0[i]);
+      const Displacement d = finish<K, Q>(prepared[i], prepared[i].mean, estimate, params, lambda, offsets[i]);
+      if (!d.valid) ++degenerate;
+      next[row] = p + d.value;
+    }
   }
   return degenerate;
 }
 
 // The two instantiations of the row loop: the same source, compiled for the build's baseline
-// and for AVX2. Only code inlined into the AVX2 one uses AVX2; what it calls (the normal, the
-// slow path) is the baseline's.
+// and for AVX2. Only code inlined into the AVX2 one uses AVX2; what it calls (the slow path,
+// the normal's fallback) is the baseline's.
 template <Kernel K>
 std::size_t step_rows_plain(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
                             std::span<const Index> rows, const FlowParams& params, double lambda,

@@ -409,6 +409,36 @@ TEST(EulerStep, Avx2KernelGivesThePlainKernelsBits) {
   }
 }
 
+TEST(EulerStep, EachRowAloneGivesTheSameBits) {
+  // The step works on several points at once (their normals' iterations interleaved): a row
+  // stepped on its own must come out as in the whole step, with either kernel.
+  const std::vector<Vec3> points = test::noisy_cube(2000, 0.01, 13);
+  const Neighborhoods full = build_neighborhoods(points, knn(16));
+  const double lambda = auto_lambda(points, full, 2.0);
+  for (const CutoffOrigin origin : {CutoffOrigin::Point, CutoffOrigin::Plane}) {
+    for (const StepKernel kernel : {StepKernel::Plain, StepKernel::Avx2}) {
+      if (!step_kernel_available(kernel)) continue;
+      FlowParams params;
+      params.cutoff_origin = origin;
+      std::vector<Vec3> all(points.size());
+      euler_step(points, full, {}, params, lambda, all, kernel);
+      for (Index i = 0; i < points.size(); i += 7) {
+        Neighborhoods one;
+        one.stride = full.stride;
+        one.eps = full.eps;
+        const auto list = full.of(i);
+        one.indices.assign(list.begin(), list.end());
+        one.indices.resize(static_cast<std::size_t>(full.stride), 0);
+        one.counts = {static_cast<std::uint16_t>(list.size())};
+        const Index row[] = {i};
+        std::vector<Vec3> alone(1);
+        euler_step(points, one, row, params, lambda, alone, kernel);
+        ASSERT_EQ(alone[0], all[i]) << "point " << i;
+      }
+    }
+  }
+}
+
 TEST(EulerStep, KernelChoiceFollowsTheCpuAndTheEnvironment) {
   // ctest runs the flow tests once more with POINTFAIR_NO_AVX2=1 (EulerStepPlainKernel).
   const char* off = std::getenv("POINTFAIR_NO_AVX2");
