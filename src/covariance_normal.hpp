@@ -60,7 +60,7 @@ struct SymmetricCovariance {
 /// as for one, each lane on its own, interleaved so that the lanes' long chains of dependent
 /// divisions and square roots overlap. Every lane's result is the one-matrix result, to the bit.
 template <std::size_t L>
-[[gnu::always_inline]] inline void smallest_eigenvalues(const SymmetricCovariance* a,
+[[gnu::always_inline]] inline void smallest_eigenvalues(const SymmetricCovariance* const* a,
                                                         std::size_t count, double* c0) {
   bool running[L];
   for (std::size_t l = 0; l < L; ++l) {
@@ -70,7 +70,7 @@ template <std::size_t L>
   for (int iteration = 0; iteration < 64; ++iteration) {
     bool any = false;
     for (std::size_t l = 0; l < L; ++l) {
-      if (running[l]) running[l] = laguerre_step(a[l], c0[l]);
+      if (running[l]) running[l] = laguerre_step(*a[l], c0[l]);
       any |= running[l];
     }
     if (!any) break;
@@ -115,7 +115,8 @@ template <std::size_t L>
   const SymmetricCovariance a = symmetric_covariance(a00, a01, a02, a11, a12, a22);
   double c0 = 0.0;
   // (A matrix that goes to the fallback need not iterate.)
-  if (a.tr > 0.0 && std::isfinite(a.tr)) smallest_eigenvalues<1>(&a, 1, &c0);
+  const SymmetricCovariance* one = &a;
+  if (a.tr > 0.0 && std::isfinite(a.tr)) smallest_eigenvalues<1>(&one, 1, &c0);
   return normal_from_smallest_eigenvalue(a, c0);
 }
 

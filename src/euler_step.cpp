@@ -287,11 +287,10 @@ struct Prepared {
   detail::SymmetricCovariance covariance;
 };
 
-// Gathers the m > 0 neighbour offsets of p into d and sums them.
+// Gathers the m > 0 neighbour offsets of p into d and sums them into s.
 template <Kernel K, class Q>
-POINTFAIR_INLINE Prepared prepare(const Vec3& p, std::span<const Index> neighbors,
-                                  std::span<const Vec3> points, Offsets& d) {
-  Prepared s;
+POINTFAIR_INLINE void prepare(const Vec3& p, std::span<const Index> neighbors,
+                              std::span<const Vec3> points, Offsets& d, Prepared& s) {
   const std::size_t m = neighbors.size();
   s.m = m;
   const Pair pxy{p.x(), p.y()};
@@ -326,7 +325,6 @@ POINTFAIR_INLINE Prepared prepare(const Vec3& p, std::span<const Index> neighbor
                                                 s2.a * inv_count - mean.y() * mean.z(),
                                                 s2.b * inv_count - mean.z() * mean.z());
   }
-  return s;
 }
 
 // The motion of a prepared point with the plane (normal, and the barycentre p - mean).
@@ -377,7 +375,8 @@ POINTFAIR_INLINE Displacement fast_displacement(const Vec3& p, std::span<const I
                                                 const FlowParams& params, double lambda,
                                                 Offsets& d) {
   if (neighbors.empty()) return {};
-  const Prepared s = prepare<K, Q>(p, neighbors, points, d);
+  Prepared s;
+  prepare<K, Q>(p, neighbors, points, d, s);
   if constexpr (K == Kernel::Umbrella) {
     // The umbrella operator needs no frame.
     return {params.tau * (-s.sum * (1.0 / static_cast<double>(s.m))), true};
@@ -436,7 +435,7 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
   constexpr std::size_t kBatch = 4;
   Offsets offsets[kBatch];
   Prepared prepared[kBatch];
-  detail::SymmetricCovariance covariances[kBatch];
+  const detail::SymmetricCovariance* covariances[kBatch];
   std::size_t batch_rows[kBatch];
   for (std::size_t r = begin; r < end;) {
     std::size_t count = 0;
@@ -453,8 +452,8 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
         next[r] = p + d.value;
         continue;
       }
-      prepared[count] = prepare<K, Q>(p, nb, current, offsets[count]);
-      covariances[count] = prepared[count].covariance;
+      prepare<K, Q>(p, nb, current, offsets[count], prepared[count]);
+      covariances[count] = &prepared[count].covariance;
       batch_rows[count] = r;
       ++count;
     }
@@ -463,7 +462,7 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
     for (std::size_t i = 0; i < count; ++i) {
       const std::size_t row = batch_rows[i];
       const Vec3& p = current[rows.empty() ? row : rows[row]];
-      const NormalEstimate estimate = detail::normal_from_smallest_eigenvalue(covariances[i], c0[i]);
+      const NormalEstimate estimate = detail::normal_from_smallest_eigenvalue(prepared[i].covariance, c0[i]);
       const Displacement d = finish<K, Q>(prepared[i], prepared[i].mean, estimate, params, lambda, offsets[i]);
       if (!d.valid) ++degenerate;
       next[row] = p + d.value;
