@@ -17,6 +17,7 @@
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
 #include "covariance_normal.hpp"
+#include "robust_plane_fit.hpp"
 
 namespace pointfair {
 
@@ -405,7 +406,7 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
   constexpr Kernel kIsotropic = K == Kernel::IsotropicNormal ? K : Kernel::Umbrella;
   const bool normal_only = params.constrain_normal;
   std::size_t degenerate = 0;
-  const bool batched = K != Kernel::Umbrella && !gated && params.normal_estimator == NormalEstimator::Pca;
+  const bool batched = K != Kernel::Umbrella && !gated;
   if (!batched) {
     Offsets offsets;
     for (std::size_t r = begin; r < end; ++r) {
@@ -430,13 +431,18 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
     }
     return degenerate;
   }
-  // PCA normals, no gating: kBatch points at a time, their normals' iterations interleaved
-  // (detail::smallest_eigenvalues). Each point's result is the one it gets alone, to the bit.
+  // No gating: kBatch points at a time, their normals' iterations interleaved
+  // (detail::smallest_eigenvalues; for the robust plane, detail::fit_robust_planes). Each
+  // point's result is the one it gets alone, to the bit.
   constexpr std::size_t kBatch = 4;
+  const bool robust = params.normal_estimator == NormalEstimator::Robust;
   Offsets offsets[kBatch];
   Prepared prepared[kBatch];
   const detail::SymmetricCovariance* covariances[kBatch];
   std::size_t batch_rows[kBatch];
+  // The robust fit's work space: the offsets as vectors (d_j, not negated), weights, scratch.
+  std::array<std::array<Vec3, kLocalNeighbors>, kBatch> robust_offsets;
+  std::array<std::array<double, kLocalNeighbors + 1>, kBatch> robust_weights, robust_scratch;
   for (std::size_t r = begin; r < end;) {
     std::size_t count = 0;
     for (; r < end && count < kBatch; ++r) {
@@ -456,6 +462,31 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
       covariances[count] = &prepared[count].covariance;
       batch_rows[count] = r;
       ++count;
+    }
+    if (robust) {
+      std::span<const Vec3> lane_offsets[kBatch];
+      std::span<double> lane_weights[kBatch], lane_scratch[kBatch];
+      RobustPlane planes[kBatch];
+      for (std::size_t i = 0; i < count; ++i) {
+        const std::size_t m = prepared[i].m;
+        const Offsets& d = offsets[i];
+        for (std::size_t j = 0; j < m; ++j) robust_offsets[i][j] = -Vec3(d.x[j], d.y[j], d.z[j]);
+        lane_offsets[i] = std::span<const Vec3>(robust_offsets[i].data(), m);
+        lane_weights[i] = std::span<double>(robust_weights[i].data(), m + 1);
+        lane_scratch[i] = std::span<double>(robust_scratch[i].data(), m + 1);
+      }
+      detail::fit_robust_planes<kBatch>(lane_offsets, count, params.robust, lane_weights,
+                                        lane_scratch, planes);
+      for (std::size_t i = 0; i < count; ++i) {
+        const std::size_t row = batch_rows[i];
+        const Vec3& p = current[rows.empty() ? row : rows[row]];
+        const Displacement d = finish<K, Q>(prepared[i], -planes[i].mean,
+                                            NormalEstimate{planes[i].normal, planes[i].valid},
+                                            params, lambda, offsets[i]);
+        if (!d.valid) ++degenerate;
+        next[row] = p + d.value;
+      }
+      continue;
     }
     double c0[kBatch];
     detail::smallest_eigenvalues<kBatch>(covariances, count, c0);
