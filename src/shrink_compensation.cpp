@@ -1,5 +1,7 @@
 #include "pointfair/shrink_compensation.hpp"
 
+#include <cmath>
+
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
 
@@ -21,7 +23,15 @@ void compensate_shrinkage(std::span<const Vec3> current, std::span<const Vec3> u
       Vec3 mean = Vec3::Zero();
       for (const Index j : nb) mean += updated[j] - current[j];
       if (!nb.empty()) mean /= static_cast<double>(nb.size());
-      next[r] = updated[i] - beta * mean;
+      // Never farther than the flow's own update: a neighbourhood whose updates alternate in
+      // sign (two points; a nearly bipartite pair of clusters) would otherwise be pushed
+      // apart by up to (1 + beta) times the update, which grows without bound for
+      // tau (1 + beta) > 1.
+      const Vec3 own = updated[i] - current[i];
+      Vec3 step = own - beta * mean;
+      const double limit = own.squaredNorm(), length = step.squaredNorm();
+      if (length > limit) step *= std::sqrt(limit / length);
+      next[r] = current[i] + step;
     }
   }, 2048);
 }

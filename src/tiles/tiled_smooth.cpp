@@ -185,14 +185,18 @@ struct BlockSlot {
     for (std::size_t j = 1; j <= h; ++j) {
       // The deepest level whose step-j positions are exact, and the deepest plain update.
       const std::size_t last = d - rings * j, reach = last + rings - 1;
+      // An empty level (a tile without halo) is skipped: empty rows would mean "every point"
+      // to the kernels.
+      if (ids_of(0).empty()) degenerate[j - 1] = 0;
       for (std::size_t l = 0; l <= reach; ++l) {
+        if (ids_of(l).empty()) continue;
         const StepStats stats =
             euler_step(cur, lists[l], ids_of(l), flow, lambda, part(beta > 0.0 ? updated : next, l));
         if (l == 0) degenerate[j - 1] = stats.degenerate;
       }
       if (beta > 0.0)
         for (std::size_t l = 0; l <= last; ++l)
-          compensate_shrinkage(cur, updated, lists[l], ids_of(l), beta, part(next, l));
+          if (!ids_of(l).empty()) compensate_shrinkage(cur, updated, lists[l], ids_of(l), beta, part(next, l));
       std::copy(next.begin(), next.begin() + static_cast<std::ptrdiff_t>(level_end[last]), cur.begin());
     }
   }
