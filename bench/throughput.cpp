@@ -97,15 +97,15 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// The paper's estimator (FlowParams{}: curvatures from the point itself) for `steps` steps,
-// with no automatic stop, so that every run does the same number of steps.
+// The paper's estimator (FlowParams{}: curvatures from the point itself, no shrinkage
+// compensation) for `steps` steps, with no automatic stop, so that every run does the same
+// number of steps.
 SmoothParams step_params(Flow flow, int k, int steps) {
-  SmoothParams params;
+  SmoothParams params = paper_smooth_params();
   params.neighbors.k = k;
   params.flow = FlowParams{};
   params.flow.flow = flow;
   params.steps = steps;
-  params.stop_lambda_ratio = 0.0;
   return params;
 }
 

@@ -20,6 +20,17 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
+SmoothParams paper_smooth_params(SmoothParams base) {
+  base.flow.cutoff_origin = CutoffOrigin::Point;
+  base.flow.normal_estimator = NormalEstimator::Pca;
+  base.flow.tau = 0.5;
+  base.steps = 100;
+  base.stop_lambda_ratio = 0.0;
+  base.stop_plateau = 0.0;
+  base.shrink_compensation = 0.0;
+  return base;
+}
+
 bool should_stop(const SmoothParams& params, std::span<const double> lambdas) {
   if (lambdas.size() < 2) return false;
   const std::size_t n = lambdas.size() - 1;

@@ -93,6 +93,7 @@ SmoothParams stop_params(double ratio, int steps) {
   p.neighbors.k = 16;
   p.steps = steps;
   p.stop_lambda_ratio = ratio;
+  p.stop_plateau = 0.0;  // the ratio stop alone
   return p;
 }
 
@@ -137,6 +138,31 @@ TEST(StopLambdaRatio, RejectsRatiosOutsideZeroToOne) {
   EXPECT_THROW(stop_params(-0.1, 5).validate(), ParamError);
   EXPECT_THROW(stop_params(std::nan(""), 5).validate(), ParamError);
   EXPECT_NO_THROW(stop_params(0.0, 5).validate());
+}
+
+// --paper: the paper's reading on top of the caller's other settings.
+TEST(PaperParams, ThePaperStepCountAndNoStopOrCompensationOnTopOfTheBase) {
+  SmoothParams base;
+  base.neighbors.k = 24;
+  base.flow.lambda = 3.0;
+  const SmoothParams p = paper_smooth_params(base);
+  EXPECT_EQ(p.flow.cutoff_origin, CutoffOrigin::Point);
+  EXPECT_EQ(p.flow.normal_estimator, NormalEstimator::Pca);
+  EXPECT_EQ(p.flow.tau, 0.5);
+  EXPECT_EQ(p.steps, 100);
+  EXPECT_EQ(p.stop_lambda_ratio, 0.0);
+  EXPECT_EQ(p.stop_plateau, 0.0);
+  EXPECT_EQ(p.shrink_compensation, 0.0);
+  EXPECT_EQ(p.neighbors.k, 24);
+  EXPECT_EQ(p.flow.lambda, 3.0);
+  // The paper's flow step is FlowParams{}'s, but for what the base chose.
+  const FlowParams paper_step;
+  EXPECT_EQ(p.flow.tau, paper_step.tau);
+  EXPECT_EQ(p.flow.cutoff_origin, paper_step.cutoff_origin);
+  // Defaults differ from it where the quality bench chose otherwise.
+  const SmoothParams d;
+  EXPECT_NE(d.shrink_compensation, p.shrink_compensation);
+  EXPECT_NE(d.flow.cutoff_origin, p.flow.cutoff_origin);
 }
 
 }  // namespace

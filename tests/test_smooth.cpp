@@ -1,6 +1,7 @@
 // The whole evolution: agreement with hand-driven Euler steps, rebuilds, noise-free
 // neighbourhoods, degenerate points, invariances (rigid motion, scaling, permutation), the
 // anisotropic flow keeping a cube's edges, per-point attributes, and parameter checks.
+#include "pointfair/shrink_compensation.hpp"
 #include "pointfair/smooth.hpp"
 
 #include <gtest/gtest.h>
@@ -45,26 +46,31 @@ TEST(Smooth, ZeroStepsReproduceTheInput) {
 
 TEST(Smooth, EqualsHandDrivenEulerSteps) {
   // smooth() = neighbourhoods of the input, then per step: lambda (measured again before
-  // every step if asked) and one Jacobi step.
+  // every step if asked), one Jacobi step and its shrinkage compensation (beta 1 by default;
+  // 0 copies the step).
   const std::vector<Vec3> input = test::noisy_cube(3000, 0.01, 2);
   for (const bool every : {true, false}) {
-    SmoothParams params = small_params(5);
-    params.lambda_every_step = every;
-    std::vector<Vec3> points = input;
-    const SmoothReport report = smooth(points, params);
+    for (const double beta : {1.0, 0.0}) {
+      SmoothParams params = small_params(5);
+      params.lambda_every_step = every;
+      params.shrink_compensation = beta;
+      std::vector<Vec3> points = input;
+      const SmoothReport report = smooth(points, params);
 
-    const Neighborhoods n = build_neighborhoods(input, params.neighbors);
-    std::vector<Vec3> current = input, next(input.size());
-    double lambda = resolve_lambda(current, n, params.flow);
-    for (int s = 0; s < 5; ++s) {
-      if (every) lambda = resolve_lambda(current, n, params.flow);
-      euler_step(current, n, {}, params.flow, lambda, next);
-      current.swap(next);
+      const Neighborhoods n = build_neighborhoods(input, params.neighbors);
+      std::vector<Vec3> current = input, updated(input.size()), next(input.size());
+      double lambda = resolve_lambda(current, n, params.flow);
+      for (int s = 0; s < 5; ++s) {
+        if (every) lambda = resolve_lambda(current, n, params.flow);
+        euler_step(current, n, {}, params.flow, lambda, updated);
+        compensate_shrinkage(current, updated, n, {}, beta, next);
+        current.swap(next);
+      }
+      EXPECT_TRUE(test::bitwise_equal(points, current)) << "every step: " << every << ", beta " << beta;
+      EXPECT_EQ(report.lambda, lambda);
+      EXPECT_EQ(report.steps, 5);
+      EXPECT_TRUE(test::same_neighborhoods(report.neighborhoods, n));
     }
-    EXPECT_TRUE(test::bitwise_equal(points, current)) << "every step: " << every;
-    EXPECT_EQ(report.lambda, lambda);
-    EXPECT_EQ(report.steps, 5);
-    EXPECT_TRUE(test::same_neighborhoods(report.neighborhoods, n));
   }
 }
 
@@ -296,7 +302,9 @@ TEST(Smooth, AnisotropicFlowKeepsCubeEdges) {
   const std::vector<Vec3> clean = sample_mesh(cube_mesh(), 10000, 7).points;
   std::vector<Vec3> noisy = clean;
   add_noise(noisy, 0.005 * bounding_box_diagonal(clean), 8);
+  // The paper's flows, uncompensated: the compensated isotropic flow rounds the edges less.
   SmoothParams params = small_params(10);
+  params.shrink_compensation = 0.0;
   params.flow.cutoff = Cutoff::Sharp;
   params.lambda_every_step = true;
   const std::vector<Vec3> aniso = run(noisy, params);

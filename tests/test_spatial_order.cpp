@@ -11,6 +11,7 @@
 
 #include "pointfair/euler_step.hpp"
 #include "pointfair/shapes.hpp"
+#include "pointfair/shrink_compensation.hpp"
 #include "pointfair/smooth.hpp"
 #include "pointfair/spatial_order.hpp"
 
@@ -119,12 +120,13 @@ TEST(SpatialOrder, SmoothIsBitIdenticalToStepsInInputOrder) {
     std::vector<Vec3> smoothed = input;
     const SmoothReport report = smooth(smoothed, params);
 
-    std::vector<Vec3> current = input, next(input.size());
+    std::vector<Vec3> current = input, updated(input.size()), next(input.size());
     const Neighborhoods nb = build_neighborhoods(input, params.neighbors);
     double lambda = resolve_lambda(current, nb, params.flow);
     for (int step = 0; step < params.steps; ++step) {
       if (every_step && step > 0) lambda = resolve_lambda(current, nb, params.flow);
-      euler_step(current, nb, {}, params.flow, lambda, next);
+      euler_step(current, nb, {}, params.flow, lambda, updated);
+      compensate_shrinkage(current, updated, nb, {}, params.shrink_compensation, next);
       current.swap(next);
     }
     EXPECT_TRUE(same_bits(smoothed, current)) << "every_step " << every_step;

@@ -134,8 +134,9 @@ void table(std::ostream& md, const Case& c) {
   }
 }
 
+// The paper's experiments at the paper's settings: its reading of the method, `steps` steps.
 SmoothParams steps_params(int steps, Flow flow) {
-  SmoothParams p;
+  SmoothParams p = paper_smooth_params();
   p.steps = steps;
   p.flow.flow = flow;
   return p;

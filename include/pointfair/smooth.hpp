@@ -16,21 +16,23 @@ namespace pointfair {
 struct SmoothParams {
   NeighborParams neighbors;
   /// The flow. Unlike FlowParams{} (the paper's step), the defaults measure the cut-off's
-  /// curvatures from each point's foot on its fitted plane (CutoffOrigin::Plane) and fit that
-  /// plane robustly (NormalEstimator::Robust), so that it does not straddle sharp edges.
-  /// Measured with the automatic stop below on fandisk (100K points, seed 1; RMS distance in
-  /// 1e-3 of the diagonal / normal error near creases, clean samples 13.6°): 0.353 / 15.9° at
-  /// 0.1% noise and 1.446 / 26.7° at 0.5%, against 0.381 / 16.8° and 1.476 / 26.6° with PCA
-  /// planes (stop at 0.25) and 0.74 / 16.9° and 2.03 / 33.3° for the paper's reading (Point,
-  /// PCA, 100 steps, no stop). README, Quality.
+  /// curvatures from each point's foot on its fitted plane (CutoffOrigin::Plane), fit that
+  /// plane robustly (NormalEstimator::Robust), so that it does not straddle sharp edges, and
+  /// take steps of tau 0.8 (with shrink_compensation below, larger steps stay stable and need
+  /// fewer of them). Measured on fandisk (100K points, seed 1; RMS distance in 1e-3 of the
+  /// diagonal / normal error near creases, clean samples 13.6°) with all of this section's
+  /// defaults: 0.279 / 14.2° at 0.1% noise and 1.134 / 22.7° at 0.5%, against 0.353 / 15.9°
+  /// and 1.446 / 26.7° without compensation (tau 0.5, stop at 0.2) and 0.74 / 16.9° and
+  /// 2.03 / 33.3° for the paper's reading (paper_smooth_params). README, Quality.
   FlowParams flow = [] {
     FlowParams f;
     f.cutoff_origin = CutoffOrigin::Plane;
     f.normal_estimator = NormalEstimator::Robust;
+    f.tau = 0.8;
     return f;
   }();
   /// Number of Euler steps; 0 reproduces the input.
-  int steps = 100;
+  int steps = 150;
   /// Rebuild the neighbourhoods from the current positions every this many steps; 0: never.
   int rebuild_interval = 0;
   /// With an automatic lambda: measure it again on the current positions before every step
@@ -42,31 +44,36 @@ struct SmoothParams {
   /// whose lambda is at most this fraction of the lambda of the input. The median |kappa_ij|
   /// is dominated by the noise, so its fall measures how much of the noise is gone, whatever
   /// its level, and the flow stops before it drifts; `steps` is then the most steps run.
-  /// Ignored by the isotropic flow and with a fixed lambda or lambda measured once. 0.2 is the
-  /// compromise measured with the robust plane (README, Quality): fandisk (100K points) stops
-  /// after 6 steps at 0.1% noise and 18 at 0.5%, and prefers 0.15 (0.341 / 15.4° and 1.429 /
-  /// 25.8°); the torus and the octahedron prefer 0.25 (RMS 2.97 vs 3.52 at 0.15, 5.09 vs 5.79).
-  /// The out-of-core smoother stops at the same step.
-  double stop_lambda_ratio = 0.2;
+  /// Ignored by the isotropic flow and with a fixed lambda or lambda measured once. 0.1 with
+  /// the compensated flow (fandisk stops after 7 steps at 0.1% noise, 56 at 0.5%); without
+  /// compensation 0.2 was the compromise (README, Quality). The out-of-core smoother stops at
+  /// the same step.
+  double stop_lambda_ratio = 0.1;
   /// Second automatic stop (dimensionless, in [0, 1); 0 = off), under the same conditions as
   /// stop_lambda_ratio: with lambda_s the automatic lambda measured before step s + 1
   /// (lambda_0 the input's), stop before step n + 1 (n >= 8 steps done) once
-  /// lambda_n > (1 - stop_plateau) lambda_{n-4} and lambda_n <= 0.3 lambda_0. On a curved surface the median |kappa_ij|
-  /// falls to the surface's own curvature, not to 0 (the bunny's clean samples score 0.12 of
-  /// its noisy input at 0.1% noise): once it stops falling the noise is gone. 0.03 measured
+  /// lambda_n > (1 - stop_plateau) lambda_{n-4} and lambda_n <= 0.3 lambda_0. On a curved
+  /// surface the median |kappa_ij| falls to the surface's own curvature, not to 0 (the
+  /// bunny's clean samples score 0.12 of its noisy input at 0.1% noise): once it stops falling the noise is gone. 0.03 measured
   /// best with the compensated flow (README, Quality). The out-of-core smoother stops at the
   /// same step, also after --resume (it reads the earlier lambdas from its step log).
-  double stop_plateau = 0.0;
+  double stop_plateau = 0.03;
   /// Shrinkage compensation beta in [0, 1] (0 = off, the paper): every step subtracts beta
   /// times the mean update of a point's neighbours from its own update
   /// (shrink_compensation.hpp), so that the flow removes noise without shrinking curved
-  /// surfaces. 1 measured best: sphere (20K points, 1% noise) RMS 1.94e-3 vs 2.54e-3
-  /// uncompensated, fandisk at 0.5% noise 1.140e-3 / 23.0° vs 1.446e-3 / 26.7° (README).
-  /// Out of core each tile then comes with the 2-ring closure of its lists (tiled_smooth.hpp).
-  double shrink_compensation = 0.0;
+  /// surfaces (B = 1 is the bi-Laplacian flow). 1 measured best, with the other defaults:
+  /// sphere (20K points, 1% noise) RMS 1.90e-3 vs 2.54e-3 uncompensated, torus 2.04e-3 vs
+  /// 3.07e-3, bunny (100K, 0.1%) 0.272e-3 vs 0.462e-3 (README, Quality). Out of core each
+  /// tile then comes with the 2-ring closure of its lists (tiled_smooth.hpp).
+  double shrink_compensation = 1.0;
 
   void validate() const;
 };
+
+/// The method as the paper states it, on top of `base` (its neighbourhoods, lambda and
+/// feature settings are kept): the cut-off's curvatures from the point itself, PCA planes,
+/// tau 0.5, 100 steps, no automatic stop and no shrinkage compensation. The CLI's --paper.
+SmoothParams paper_smooth_params(SmoothParams base = {});
 
 /// The automatic stop (stop_lambda_ratio, stop_plateau): true when the flow should stop
 /// before step n + 1, given lambdas[s] = the automatic lambda measured before step s + 1 for

@@ -120,6 +120,26 @@ TEST_F(CliTest, SmoothWritesResultAndJsonSummary) {
   EXPECT_TRUE(files_except({"in.ply", "out.ply"}).empty());
 }
 
+// --paper sets the paper's reading; an option after it overrides it.
+TEST_F(CliTest, PaperPresetReachesTheParametersAndLaterOptionsOverrideIt) {
+  const fs::path in = write_cloud("in.ply");
+  const auto params = [&](const std::string& options) {
+    const RunResult r = run("smooth " + in.string() + " " + (dir_ / "out.ply").string() + " --json --quiet " + options);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return r.out;
+  };
+  const std::string defaults = params("--steps 1");
+  EXPECT_NE(defaults.find("\"shrink_compensation\": 1,"), std::string::npos) << defaults;
+  EXPECT_NE(defaults.find("\"cutoff_origin\": \"plane\""), std::string::npos) << defaults;
+  const std::string paper = params("--paper --steps 1");
+  for (const std::string field : {"\"shrink_compensation\": 0,", "\"stop_plateau\": 0,", "\"stop_lambda_ratio\": 0,",
+                                  "\"tau\": 0.5,", "\"cutoff_origin\": \"point\"", "\"normal\": \"pca\""})
+    EXPECT_NE(paper.find(field), std::string::npos) << field << " in " << paper;
+  EXPECT_NE(paper.find("\"steps\": 1,"), std::string::npos) << paper;
+  const std::string mixed = params("--paper --steps 1 --normal robust");
+  EXPECT_NE(mixed.find("\"normal\": \"robust\""), std::string::npos) << mixed;
+}
+
 // A point file over --memory-budget runs out of core; the shrinkage compensation and the
 // plateau stop reach that path: the same points and the same number of steps as in core, and
 // not those of the uncompensated flow.
@@ -143,7 +163,7 @@ TEST_F(CliTest, OutOfCoreSmoothTakesCompensationAndPlateauStop) {
   EXPECT_EQ(a.positions, b.positions);
   const RunResult plain = run("smooth " + in.string() + " " + (dir_ / "c.ply").string() +
                               " --memory-budget 3M --steps " + std::to_string(steps_of(core.out)) +
-                              " --stop-lambda-ratio 0 --threads 2 --quiet");
+                              " --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0 --threads 2 --quiet");
   ASSERT_EQ(plain.exit_code, 0) << plain.err;
   EXPECT_NE(io::read_points(dir_ / "c.ply").positions, b.positions);
 }

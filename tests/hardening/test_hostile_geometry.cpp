@@ -74,15 +74,25 @@ TEST(HostileGeometry, EmptyAndTinyCloudsAreUnchanged) {
     EXPECT_EQ(o.report.degenerate, n);
     EXPECT_EQ(o.attributes.degenerate, n);
     EXPECT_TRUE(attributes_finite(o.attributes));
-    // The umbrella operator needs no plane: two points meet at their midpoint.
+    // The umbrella operator needs no plane: with tau 0.5 two points meet at their midpoint.
     SmoothParams iso = few_steps();
     iso.flow.flow = Flow::Isotropic;
+    iso.flow.tau = 0.5;
+    iso.shrink_compensation = 0.0;
     const Outcome u = run(points, iso);
+    // With the defaults (tau 0.8, compensated) they swap sides around it, closer each step,
+    // and do not fly apart (the compensation's cap, shrink_compensation.hpp).
+    SmoothParams compensated = few_steps();
+    compensated.flow.flow = Flow::Isotropic;
+    const Outcome c = run(points, compensated);
     if (n == 2) {
       EXPECT_EQ(u.positions[0], u.positions[1]);
       EXPECT_EQ(u.positions[0], Vec3(0.5, 0.5, -1.0));
+      EXPECT_LT((c.positions[1] - c.positions[0]).norm(), 1.0);
+      EXPECT_NEAR((0.5 * (c.positions[0] + c.positions[1]) - Vec3(0.5, 0.5, -1.0)).norm(), 0.0, 1e-12);
     } else {
       EXPECT_EQ(u.positions, points);
+      EXPECT_EQ(c.positions, points);
     }
   }
 }

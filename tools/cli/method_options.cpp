@@ -45,6 +45,11 @@ std::string to_string(ColourBy colour) {
 }
 
 void add_method_options(ArgumentParser& p, SmoothParams& s) {
+  p.flag("paper",
+         "The method as the paper states it: --cutoff-origin point --normal pca --tau 0.5 "
+         "--steps 100 --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0. Options "
+         "after it override it.",
+         [&s] { s = paper_smooth_params(s); });
   p.value("k", "N", "Neighbours per point, the point itself not counted (1..1024). Default 16.",
           [&s](std::string_view v) { s.neighbors.k = parse_int(v, "--k"); });
   p.value("eps", "LENGTH|auto|inf",
@@ -63,11 +68,11 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           [&s](std::string_view v) { s.neighbors.eps_auto_factor = parse_double(v, "--eps-factor"); });
   p.value("steps", "N",
           "Explicit Euler steps (0 reproduces the input); the most steps run when "
-          "--stop-lambda-ratio stops the anisotropic flow earlier. Default 100.",
+          "an automatic stop ends the anisotropic flow earlier. Default 150.",
           [&s](std::string_view v) { s.steps = parse_int(v, "--steps"); });
   p.value("tau", "T",
           "Step size tau in (0, 1], dimensionless: 1 moves a point to the mean of its kept "
-          "neighbours. Default 0.5.",
+          "neighbours. Default 0.8 (the paper: 0.5).",
           [&s](std::string_view v) { s.flow.tau = parse_double(v, "--tau"); });
   p.value("flow", "iso|aniso", "Isotropic (umbrella) or anisotropic Laplacian. Default aniso.",
           [&s](std::string_view v) {
@@ -109,19 +114,19 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Automatic stop of the anisotropic flow, R in [0, 1) (dimensionless): with --lambda auto "
           "and --lambda-schedule every-step, stop once lambda has fallen to R times its value on "
           "the input (the noise is then mostly gone); --steps is the most steps run. 0 = always "
-          "run --steps (the paper). Default 0.2.",
+          "run --steps (the paper). Default 0.1.",
           [&s](std::string_view v) { s.stop_lambda_ratio = parse_double(v, "--stop-lambda-ratio"); });
   p.value("stop-plateau", "D",
           "Second automatic stop, D in [0, 1) (dimensionless), under the same conditions as "
           "--stop-lambda-ratio: stop once lambda has fallen by less than the fraction D over the "
           "last 4 steps (from 8 steps on): on a curved surface lambda falls to the surface's own "
-          "curvature, not to 0. 0 = off. Default 0.",
+          "curvature, not to 0. 0 = off (the paper). Default 0.03.",
           [&s](std::string_view v) { s.stop_plateau = parse_double(v, "--stop-plateau"); });
   p.value("shrink-compensation", "B",
           "Shrinkage compensation, B in [0, 1] (dimensionless): subtract B times the mean update "
           "of a point's neighbours from its own update in every step (B = 1: the bi-Laplacian "
           "flow), so that curved surfaces do not shrink as the noise goes. 0 = the paper's flow. "
-          "Default 0.",
+          "Default 1.",
           [&s](std::string_view v) { s.shrink_compensation = parse_double(v, "--shrink-compensation"); });
   p.value("lambda-factor", "F", "Multiplier of the automatic lambda (dimensionless). Default 1.",
           [&s](std::string_view v) { s.flow.lambda_auto_factor = parse_double(v, "--lambda-factor"); });
