@@ -38,6 +38,19 @@ class TiledSmoothTest : public test::TempDirTest {
     set_thread_count(0);
     TempDirTest::TearDown();
   }
+  // The run of `options` stopped after its first step (block), then resumed with temporal
+  // blocks of `resumed_block`: the same bits as `ref`. Removes the run file.
+  void expect_stopped_and_resumed_identical(const SmoothParams& params, OutOfCoreOptions options,
+                                            int resumed_block, const InCore& ref) {
+    options.stop_after_steps = 1;
+    EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
+    OutOfCoreOptions resume;
+    resume.resume = true;
+    resume.temporal_block = resumed_block;
+    EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume).finished);
+    expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+  }
 };
 
 struct Case {
@@ -254,14 +267,7 @@ TEST_F(TiledSmoothTest, TemporalBlocksGiveTheSameBits) {
         }
         std::filesystem::remove(path("run.h5"));
         // Stopped after the first block, resumed (with the other block length).
-        options.stop_after_steps = 1;
-        EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
-        OutOfCoreOptions resume;
-        resume.resume = true;
-        resume.temporal_block = 5 - h;
-        EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume).finished);
-        expect_identical(path("run.h5"), ref);
-        std::filesystem::remove(path("run.h5"));
+        expect_stopped_and_resumed_identical(params, options, 5 - h, ref);
       }
       std::filesystem::remove(path("one.h5"));
     }
@@ -424,14 +430,7 @@ TEST_F(TiledSmoothTest, ShrinkCompensationLikeInCore) {
       EXPECT_EQ(r.lambda, ref.report.lambda);
       expect_identical(path("run.h5"), ref);
       std::filesystem::remove(path("run.h5"));
-      options.stop_after_steps = 1;
-      EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
-      OutOfCoreOptions resume;
-      resume.resume = true;
-      resume.temporal_block = 4 - h;
-      EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume).finished);
-      expect_identical(path("run.h5"), ref);
-      std::filesystem::remove(path("run.h5"));
+      expect_stopped_and_resumed_identical(params, options, 4 - h, ref);
     }
   }
   // A resume with another beta (or none) is refused.
