@@ -21,6 +21,7 @@
 #endif
 
 #include "pointfair/kd_tree.hpp"
+#include "pointfair/knn_select.hpp"
 #include "pointfair/neighborhoods.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
@@ -109,10 +110,75 @@ __attribute__((target("avx2"))) void distances_avx2(const double* px, const doub
   for (; j < m; ++j) d[j] = distance2(px[j], py[j], pz[j], qx, qy, qz);
 }
 
-bool has_avx2() {
-  static const bool yes = __builtin_cpu_supports("avx2") != 0;
+// The n candidates with d2[j] <= limit (n counted before), in order, to (to_d2, to_id); the
+// outputs have room for n + 4. A table turns each comparison mask into the permutation that
+// packs the selected lanes: no branch per candidate.
+struct PackTable {
+  std::int32_t d2[16][8];  // 32-bit halves of the selected doubles, first
+  std::int32_t id[16][4];  // the selected indices, first
+};
+
+constexpr PackTable make_pack_table() {
+  PackTable t{};
+  for (int mask = 0; mask < 16; ++mask) {
+    int o = 0;
+    for (int lane = 0; lane < 4; ++lane) {
+      if (((mask >> lane) & 1) == 0) continue;
+      t.d2[mask][2 * o] = 2 * lane;
+      t.d2[mask][2 * o + 1] = 2 * lane + 1;
+      t.id[mask][o] = lane;
+      ++o;
+    }
+  }
+  return t;
+}
+
+alignas(32) constexpr PackTable kPack = make_pack_table();
+
+__attribute__((target("avx2,popcnt"))) void pack_within_avx2(const double* d2, const Index* ids,
+                                                              std::size_t m, double limit,
+                                                              double* to_d2, Index* to_id) {
+  const __m256d bound = _mm256_set1_pd(limit);
+  std::size_t n = 0, j = 0;
+  for (; j + 4 <= m; j += 4) {
+    const __m256d v = _mm256_loadu_pd(d2 + j);
+    const auto mask = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(v, bound, _CMP_LE_OQ)));
+    const __m256i pd = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.d2[mask]));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(to_d2 + n),
+                        _mm256_permutevar8x32_epi32(_mm256_castpd_si256(v), pd));
+    const __m128i pi = _mm_load_si128(reinterpret_cast<const __m128i*>(kPack.id[mask]));
+    const __m128 vi = _mm_castsi128_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ids + j)));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(to_id + n), _mm_castps_si128(_mm_permutevar_ps(vi, pi)));
+    n += static_cast<std::size_t>(__builtin_popcount(mask));
+  }
+  for (; j < m; ++j) {
+    to_d2[n] = d2[j];
+    to_id[n] = ids[j];
+    n += d2[j] <= limit ? 1 : 0;
+  }
+}
+#endif
+
+bool use_avx2() {
+  static const bool yes = default_knn_kernel() == KnnKernel::Avx2;
   return yes;
 }
+
+void pack_within(const double* d2, const Index* ids, std::size_t m, double limit, double* to_d2,
+                 Index* to_id) {
+#if defined(POINTFAIR_KNN_AVX2)
+  if (use_avx2()) return pack_within_avx2(d2, ids, m, limit, to_d2, to_id);
+#endif
+  std::size_t n = 0;
+  for (std::size_t j = 0; j < m; ++j) {
+    to_d2[n] = d2[j];
+    to_id[n] = ids[j];
+    n += d2[j] <= limit ? 1 : 0;
+  }
+}
+
+#if defined(POINTFAIR_KNN_AVX2)
+bool has_avx2() { return use_avx2(); }
 #endif
 
 std::size_t count_within(const double* d2, std::size_t m, double limit) {
@@ -149,6 +215,13 @@ class Nearest {
   bool full() const { return count_ == cap_; }
   double last() const { return e_[count_ - 1].d2; }
   const Entry* entries() const { return e_; }
+
+  // Takes the first entries of n pairs already sorted and within the bound.
+  void assign_sorted(const double* d2, const Index* ids, std::size_t n) {
+    count_ = static_cast<int>(std::min<std::size_t>(n, static_cast<std::size_t>(cap_)));
+    for (int j = 0; j < count_; ++j) e_[j] = {d2[j], ids[j]};
+    if (count_ == cap_) worst_ = e_[cap_ - 1].d2;
+  }
 
   // Offers the pairs with d2[j] <= limit (<= the bound): a vectorised scan that finds the few
   // of them without a branch per candidate.
@@ -545,6 +618,11 @@ struct Scratch {
   Candidates block;  // the points of the current cell's block
   Candidates extra;  // one query's points beyond the block
   std::vector<Entry> best;  // want + 1 entries (a sentinel first)
+  // The block's candidates within the threshold, packed, then sorted.
+  alignas(32) double packed_d2[kRankSortMax + 8];
+  Index packed_id[kRankSortMax + 8];
+  double sorted_d2[kRankSortMax];
+  Index sorted_id[kRankSortMax];
   std::vector<Index> pending, still;
   double guess = 0.0;  // squared distance: the first selection threshold
 };
@@ -559,7 +637,7 @@ class Search {
       : g_(g), q_(q), k_(k), want_(k + 1), max_d2_(std::isinf(eps) ? eps : eps * eps),
         budget_(std::max<std::size_t>(2048, 48 * static_cast<std::size_t>(k + 1))),
         floor_d2_(std::isfinite(g.cell) ? 1e-6 * g.cell * g.cell : kInf),
-        out_(out), last_d2_(last_d2), unresolved_(unresolved) {}
+        out_(out), last_d2_(last_d2), unresolved_(unresolved), kernel_(default_knn_kernel()) {}
 
   // Query cells [cb, ce) of q. Each cell's queries are first searched in the 3 x 3 x 3 block
   // around it; a query whose result could still miss a point beyond the block also searches
@@ -746,9 +824,20 @@ class Search {
       t = std::min(next, max_d2_);
       c = within(t);
     }
-    if (c < want && c < m && t < max_d2_) t = std::min(above, max_d2_);
+    if (c < want && c < m && t < max_d2_) {
+      t = std::min(above, max_d2_);
+      c = within(t);
+    }
+    // c candidates lie within t: packed and sorted by rank when they are few (the usual case),
+    // else inserted one by one.
     Nearest nearest(want_, max_d2_, s.best.data());
-    nearest.offer_within(d2, block.id.data(), m, t);
+    if (c <= kRankSortMax) {
+      pack_within(d2, block.id.data(), m, t, s.packed_d2, s.packed_id);
+      rank_sort(s.packed_d2, s.packed_id, c, s.sorted_d2, s.sorted_id, kernel_);
+      nearest.assign_sorted(s.sorted_d2, s.sorted_id, c);
+    } else {
+      nearest.offer_within(d2, block.id.data(), m, t);
+    }
 
     if (!within_block(q, cell, ring, nearest) && !extend(s, q, cell, ring, nearest)) return false;
     if (nearest.full()) s.guess = 1.15 * nearest.last();
@@ -837,6 +926,7 @@ class Search {
   Neighborhoods& out_;
   std::span<double> last_d2_;
   std::vector<std::uint8_t>& unresolved_;
+  KnnKernel kernel_;
 };
 
 Neighborhoods search(const CellGrid& g, const Queries& q, int k, double eps, const KdTree* tree,
