@@ -93,10 +93,14 @@ __attribute__((target("avx2"))) std::size_t count_within_avx2(const double* d2, 
   return count;
 }
 
-__attribute__((target("avx2"))) void distances_avx2(const double* px, const double* py,
-                                                    const double* pz, std::size_t m, double qx,
-                                                    double qy, double qz, double* d) {
+// Also returns how many of the distances are <= limit (the first count of the threshold).
+__attribute__((target("avx2"))) std::size_t distances_avx2(const double* px, const double* py,
+                                                           const double* pz, std::size_t m,
+                                                           double qx, double qy, double qz,
+                                                           double* d, double limit) {
   const __m256d vx = _mm256_set1_pd(qx), vy = _mm256_set1_pd(qy), vz = _mm256_set1_pd(qz);
+  const __m256d bound = _mm256_set1_pd(limit);
+  __m256i lanes = _mm256_setzero_si256();
   std::size_t j = 0;
   for (; j + 4 <= m; j += 4) {
     const __m256d dx = _mm256_sub_pd(_mm256_loadu_pd(px + j), vx);
@@ -106,16 +110,31 @@ __attribute__((target("avx2"))) void distances_avx2(const double* px, const doub
     const __m256d s = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(dx, dx), _mm256_mul_pd(dy, dy)),
                                     _mm256_mul_pd(dz, dz));
     _mm256_storeu_pd(d + j, s);
+    lanes = _mm256_sub_epi64(lanes, _mm256_castpd_si256(_mm256_cmp_pd(s, bound, _CMP_LE_OQ)));
   }
-  for (; j < m; ++j) d[j] = distance2(px[j], py[j], pz[j], qx, qy, qz);
+  alignas(32) std::int64_t sums[4];
+  _mm256_store_si256(reinterpret_cast<__m256i*>(sums), lanes);
+  auto count = static_cast<std::size_t>(sums[0] + sums[1] + sums[2] + sums[3]);
+  for (; j < m; ++j) {
+    d[j] = distance2(px[j], py[j], pz[j], qx, qy, qz);
+    count += d[j] <= limit ? 1 : 0;
+  }
+  return count;
 }
 
 // The n candidates with d2[j] <= limit (n counted before), in order, to (to_d2, to_id); the
 // outputs have room for n + 4. A table turns each comparison mask into the permutation that
 // packs the selected lanes: no branch per candidate.
+// One row a comparison mask, 64 bytes: one shifted index finds both permutations.
+struct alignas(64) PackRow {
+  std::int32_t d2[8];  // 32-bit halves of the selected doubles, first
+  std::int32_t id[4];  // the selected indices, first
+  std::int32_t count;  // how many are selected
+  std::int32_t unused[3];
+};
+
 struct PackTable {
-  std::int32_t d2[16][8];  // 32-bit halves of the selected doubles, first
-  std::int32_t id[16][4];  // the selected indices, first
+  PackRow row[16];
 };
 
 constexpr PackTable make_pack_table() {
@@ -124,18 +143,19 @@ constexpr PackTable make_pack_table() {
     int o = 0;
     for (int lane = 0; lane < 4; ++lane) {
       if (((mask >> lane) & 1) == 0) continue;
-      t.d2[mask][2 * o] = 2 * lane;
-      t.d2[mask][2 * o + 1] = 2 * lane + 1;
-      t.id[mask][o] = lane;
+      t.row[mask].d2[2 * o] = 2 * lane;
+      t.row[mask].d2[2 * o + 1] = 2 * lane + 1;
+      t.row[mask].id[o] = lane;
       ++o;
     }
+    t.row[mask].count = o;
   }
   return t;
 }
 
-alignas(32) constexpr PackTable kPack = make_pack_table();
+constexpr PackTable kPack = make_pack_table();
 
-__attribute__((target("avx2,popcnt"))) void pack_within_avx2(const double* d2, const Index* ids,
+__attribute__((target("avx2"))) void pack_within_avx2(const double* d2, const Index* ids,
                                                               std::size_t m, double limit,
                                                               double* to_d2, Index* to_id) {
   const __m256d bound = _mm256_set1_pd(limit);
@@ -143,13 +163,14 @@ __attribute__((target("avx2,popcnt"))) void pack_within_avx2(const double* d2, c
   for (; j + 4 <= m; j += 4) {
     const __m256d v = _mm256_loadu_pd(d2 + j);
     const auto mask = static_cast<unsigned>(_mm256_movemask_pd(_mm256_cmp_pd(v, bound, _CMP_LE_OQ)));
-    const __m256i pd = _mm256_load_si256(reinterpret_cast<const __m256i*>(kPack.d2[mask]));
+    const PackRow& row = kPack.row[mask];
+    const __m256i pd = _mm256_load_si256(reinterpret_cast<const __m256i*>(row.d2));
     _mm256_storeu_si256(reinterpret_cast<__m256i*>(to_d2 + n),
                         _mm256_permutevar8x32_epi32(_mm256_castpd_si256(v), pd));
-    const __m128i pi = _mm_load_si128(reinterpret_cast<const __m128i*>(kPack.id[mask]));
+    const __m128i pi = _mm_load_si128(reinterpret_cast<const __m128i*>(row.id));
     const __m128 vi = _mm_castsi128_ps(_mm_loadu_si128(reinterpret_cast<const __m128i*>(ids + j)));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(to_id + n), _mm_castps_si128(_mm_permutevar_ps(vi, pi)));
-    n += static_cast<std::size_t>(__builtin_popcount(mask));
+    n += static_cast<std::size_t>(row.count);
   }
   for (; j < m; ++j) {
     to_d2[n] = d2[j];
@@ -188,12 +209,14 @@ std::size_t count_within(const double* d2, std::size_t m, double limit) {
   return count_within_sse2(d2, m, limit);
 }
 
-void distances(const double* px, const double* py, const double* pz, std::size_t m, double qx,
-               double qy, double qz, double* d) {
+// d[j] = |p_j - q|^2 for j < m; returns how many are <= limit.
+std::size_t distances(const double* px, const double* py, const double* pz, std::size_t m,
+                      double qx, double qy, double qz, double* d, double limit) {
 #if defined(POINTFAIR_KNN_AVX2)
-  if (has_avx2()) return distances_avx2(px, py, pz, m, qx, qy, qz, d);
+  if (has_avx2()) return distances_avx2(px, py, pz, m, qx, qy, qz, d, limit);
 #endif
   distances_plain(px, py, pz, m, qx, qy, qz, d);
+  return count_within_sse2(d, m, limit);
 }
 
 struct Entry {
@@ -608,8 +631,9 @@ struct Candidates {
     m += add;
   }
 
-  void distances(double qx, double qy, double qz) {
-    pointfair::distances(x.data(), y.data(), z.data(), m, qx, qy, qz, d2.data());
+  // Returns how many are <= limit.
+  std::size_t distances(double qx, double qy, double qz, double limit = -1.0) {
+    return pointfair::distances(x.data(), y.data(), z.data(), m, qx, qy, qz, d2.data(), limit);
   }
 };
 
@@ -784,7 +808,6 @@ class Search {
     const std::size_t pos = q_.pos(e);
     const double q[3] = {g_.x[pos], g_.y[pos], g_.z[pos]};
     Candidates& block = s.block;
-    block.distances(q[0], q[1], q[2]);
 
     // Only the candidates within a threshold t enter the (quadratic) sorted insertion: t is
     // refined, counting in one vectorised pass each time, until between want and want + slack
@@ -797,7 +820,7 @@ class Search {
     const auto within = [&](double limit) { return count_within(d2, m, limit); };
     double t = std::min(s.guess, max_d2_);
     double below = 0.0, above = kInf;  // thresholds with fewer than want / too many within
-    std::size_t c = within(t);
+    std::size_t c = block.distances(q[0], q[1], q[2], t);
     for (int round = 0; round < 6; ++round) {
       double next = 0.0;
       if (c < want) {

@@ -45,11 +45,29 @@ std::int64_t count_closer_plain(const double* d2, std::size_t n, std::int64_t* r
 }
 
 #if defined(POINTFAIR_KNN_SELECT_AVX2)
-// As count_closer_plain, eight candidates at a time (two lanes of four).
+// As count_closer_plain, sixteen or eight candidates at a time (lanes of four).
 __attribute__((target("avx2"))) std::int64_t count_closer_avx2(const double* d2, std::size_t n,
                                                                std::int64_t* ranks) {
   __m256i total = _mm256_setzero_si256();
   std::size_t i = 0;
+  for (; i + 12 < n; i += 16) {
+    const __m256d a = _mm256_loadu_pd(d2 + i), b = _mm256_loadu_pd(d2 + i + 4);
+    const __m256d c = _mm256_loadu_pd(d2 + i + 8), d = _mm256_loadu_pd(d2 + i + 12);
+    __m256i ra = _mm256_setzero_si256(), rb = _mm256_setzero_si256();
+    __m256i rc = _mm256_setzero_si256(), rd = _mm256_setzero_si256();
+    for (std::size_t j = 0; j < n; ++j) {
+      const __m256d dj = _mm256_broadcast_sd(d2 + j);
+      ra = _mm256_sub_epi64(ra, _mm256_castpd_si256(_mm256_cmp_pd(dj, a, _CMP_LT_OQ)));
+      rb = _mm256_sub_epi64(rb, _mm256_castpd_si256(_mm256_cmp_pd(dj, b, _CMP_LT_OQ)));
+      rc = _mm256_sub_epi64(rc, _mm256_castpd_si256(_mm256_cmp_pd(dj, c, _CMP_LT_OQ)));
+      rd = _mm256_sub_epi64(rd, _mm256_castpd_si256(_mm256_cmp_pd(dj, d, _CMP_LT_OQ)));
+    }
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(ranks + i), ra);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(ranks + i + 4), rb);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(ranks + i + 8), rc);
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(ranks + i + 12), rd);
+    total = _mm256_add_epi64(total, _mm256_add_epi64(_mm256_add_epi64(ra, rb), _mm256_add_epi64(rc, rd)));
+  }
   for (; i + 4 < n; i += 8) {
     const __m256d a = _mm256_loadu_pd(d2 + i), b = _mm256_loadu_pd(d2 + i + 4);
     __m256i ra = _mm256_setzero_si256(), rb = _mm256_setzero_si256();
