@@ -642,6 +642,7 @@ struct Scratch {
   Candidates block;  // the points of the current cell's block
   Candidates extra;  // one query's points beyond the block
   std::vector<Entry> best;  // want + 1 entries (a sentinel first)
+  std::vector<Index> ids;   // want indices
   // The block's candidates within the threshold, packed, then sorted.
   alignas(32) double packed_d2[kRankSortMax + 8];
   Index packed_id[kRankSortMax + 8];
@@ -669,6 +670,7 @@ class Search {
   void run(std::size_t cb, std::size_t ce) const {
     Scratch s;
     s.best.resize(static_cast<std::size_t>(want_) + 1);
+    s.ids.resize(static_cast<std::size_t>(want_));
     s.guess = std::isfinite(g_.cell) ? g_.cell * g_.cell : kInf;
     std::size_t cursor[9];
     std::fill(cursor, cursor + 9, kNoCursor);
@@ -725,7 +727,7 @@ class Search {
           }
           found = nearest.count();
         }
-        write_row(q_.row(entries[i]), self, best.data() + 1, found);
+        write_row(q_.row(entries[i]), self, best.data() + 1, found, best_id.data());
       }
     }, 1);
   }
@@ -853,18 +855,28 @@ class Search {
     }
     // c candidates lie within t: packed and sorted by rank when they are few (the usual case),
     // else inserted one by one.
+    // The row is written straight from the sorted candidates when the block settles it.
     Nearest nearest(want_, max_d2_, s.best.data());
     if (c <= kRankSortMax) {
       pack_within(d2, block.id.data(), m, t, s.packed_d2, s.packed_id);
       rank_sort(s.packed_d2, s.packed_id, c, s.sorted_d2, s.sorted_id, kernel_);
+      const std::size_t found = std::min(c, want);
+      const double last = found > 0 ? s.sorted_d2[found - 1] : 0.0;
+      if (within_block(q, cell, ring, found == want ? last : max_d2_)) {
+        if (found == want) s.guess = 1.15 * last;
+        write_row(q_.row(e), g_.order[pos], s.sorted_id, static_cast<int>(found), last);
+        return true;
+      }
       nearest.assign_sorted(s.sorted_d2, s.sorted_id, c);
     } else {
       nearest.offer_within(d2, block.id.data(), m, t);
     }
 
-    if (!within_block(q, cell, ring, nearest) && !extend(s, q, cell, ring, nearest)) return false;
+    if (!within_block(q, cell, ring, nearest.full() ? nearest.last() : max_d2_) &&
+        !extend(s, q, cell, ring, nearest))
+      return false;
     if (nearest.full()) s.guess = 1.15 * nearest.last();
-    write_row(q_.row(e), g_.order[pos], nearest.entries(), nearest.count());
+    write_row(q_.row(e), g_.order[pos], nearest.entries(), nearest.count(), s.ids.data());
     return true;
   }
 
@@ -872,7 +884,7 @@ class Search {
   // bound, when fewer were found) is below the distance from q to the block's boundary. Sides
   // at the grid's border have nothing beyond them (border cells hold every point clamped in).
   bool within_block(const double* q, const std::int64_t* cell, std::int64_t ring,
-                    const Nearest& nearest) const {
+                    double needed) const {
     double gap = kInf;  // in cells
     for (int a = 0; a < 3; ++a) {
       const double u = (q[a] - g_.origin[a]) * g_.inverse_cell;
@@ -884,7 +896,6 @@ class Search {
     const double reach = (gap - kGapMargin) * g_.cell;
     if (!(reach > 0.0)) return false;
     const double outside = reach * reach * (1.0 - kRelativeMargin);
-    const double needed = nearest.full() ? nearest.last() : max_d2_;
     return needed < outside;
   }
 
@@ -924,19 +935,29 @@ class Search {
     return true;
   }
 
-  void write_row(std::size_t row, Index self, const Entry* best, int found) const {
-    if (!last_d2_.empty()) last_d2_[row] = found > 0 ? best[found - 1].d2 : 0.0;
+  // `ids`: the found points in order; `last`: the squared distance of the last of them.
+  void write_row(std::size_t row, Index self, const Index* ids, int found, double last) const {
+    if (!last_d2_.empty()) last_d2_[row] = found > 0 ? last : 0.0;
     Index* dst = out_.indices.data() + row * static_cast<std::size_t>(k_);
     // The query itself is among the found points unless more than k duplicates of it have
     // smaller indices; the list is every other found point, at most k.
     int self_at = 0;
-    while (self_at < found && best[self_at].id != self) ++self_at;
+    while (self_at < found && ids[self_at] != self) ++self_at;
     const int before = std::min(self_at, k_);
-    for (int j = 0; j < before; ++j) dst[j] = best[j].id;
+    std::copy(ids, ids + before, dst);
     const int end = std::min(found, k_ + 1);
     int count = before;
-    for (int j = self_at + 1; j < end; ++j) dst[count++] = best[j].id;
+    if (self_at + 1 < end) {
+      std::copy(ids + self_at + 1, ids + end, dst + count);
+      count += end - self_at - 1;
+    }
     out_.counts[row] = static_cast<std::uint16_t>(count);
+  }
+
+  // The same from entries; `ids` has room for them.
+  void write_row(std::size_t row, Index self, const Entry* best, int found, Index* ids) const {
+    for (int j = 0; j < found; ++j) ids[j] = best[j].id;
+    write_row(row, self, ids, found, found > 0 ? best[found - 1].d2 : 0.0);
   }
 
   const CellGrid& g_;
