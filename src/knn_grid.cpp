@@ -425,11 +425,11 @@ double choose_cell(std::span<const Vec3> points, std::size_t want, double eps, c
   const std::size_t n = points.size();
   // Small clouds: every query against every point is cheap enough.
   if (n <= 2 * want + 64) return kInf;
-  // Large clouds: every second point, and half as many of them, measure about the same
-  // distance at half the cost (the cell size only affects speed, never the lists).
-  const bool halve = n >= 8192 && want >= 8;
-  double cell = kCellFactor * (halve ? probe_spacing(points, (want + 1) / 2, 2)
-                                     : probe_spacing(points, want, 1));
+  // Large clouds: every second (fourth) point, and half (a quarter) as many of them, measure
+  // about the same distance at half (a quarter of) the cost (the cell size only affects
+  // speed, never the lists).
+  const std::size_t stride = n >= 65536 && want >= 16 ? 4 : n >= 8192 && want >= 8 ? 2 : 1;
+  double cell = kCellFactor * probe_spacing(points, (want + stride - 1) / stride, stride);
   if (!(cell > 0.0)) {
     // The probes all sit on stacks of duplicates: a cell per point on average.
     double extent = 0.0;
