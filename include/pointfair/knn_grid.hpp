@@ -6,8 +6,9 @@
 // squared distance <= eps^2 (summed in the order x, y, z), ordered by squared distance, ties
 // by the smaller index. The points are sorted by cell; the queries of one cell are searched
 // together against the points of the 3 x 3 x 3 block of cells around it: squared distances in
-// one loop the compiler vectorises, a threshold refined by vectorised counts, and a sorted
-// insertion of the few candidates within it, the query itself included as in the tree. A
+// one loop the compiler vectorises, a threshold refined by vectorised counts, and the few
+// candidates within it packed and sorted by rank (knn_select.hpp), the query itself included
+// as in the tree (more than 64 within it, e.g. stacks of duplicates: a sorted insertion). A
 // result is accepted when its (k+1)-th distance, or eps when fewer are found, is below the
 // distance from the query to the block's boundary. Otherwise the query also searches the cells
 // beyond the block that meet the box of that radius around it, which settles it exactly; a
@@ -17,7 +18,7 @@
 // cell coordinates, so a far offset (UTM-like coordinates) cannot make a list inexact.
 //
 // Cell size: 1.1 times the distance to the k-th nearest point at 16 evenly strided probe points
-// (their median; on large clouds measured among every second point), or eps (slightly
+// (their median; on large clouds measured among every second or fourth point), or eps (slightly
 // enlarged) when that is smaller. It only affects the speed, never the lists. Cell keys use 21
 // bits per axis inside a window centred on the points' median; points outside the window are
 // clamped into the border cells. The grid keeps only occupied cells (at most one per point),
