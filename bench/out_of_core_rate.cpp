@@ -99,7 +99,11 @@ OutOfCoreSection measure_out_of_core(const std::vector<Vec3>& cloud, int k, int 
   section.tile_points = bench.tile_points();
   section.tiles = bench.tiles();
   for (const Flow flow : {Flow::Isotropic, Flow::Anisotropic}) {
-    const SmoothParams params = params_for(flow);
+    SmoothParams params = params_for(flow);
+    if (options.temporal_block > 1 && params.flow.lambda == 0.0 && params.lambda_every_step) {
+      params.lambda_every_step = false;
+      section.lambda_once = true;
+    }
     for (int threads = 1; threads <= cores; ++threads) {
       set_thread_count(threads);
       std::vector<double> in_rates, out_rates, ratios;
@@ -127,9 +131,10 @@ OutOfCoreSection measure_out_of_core(const std::vector<Vec3>& cloud, int k, int 
 
 void print_out_of_core(const OutOfCoreSection& s) {
   std::printf("  out of core (container of %zu tiles of at most %llu points, --memory-budget %lluM, "
-              "temporal block %d; lists %s, %d tiles in flight), paired with in core:\n",
+              "temporal block %d%s; lists %s, %d tiles in flight), paired with in core:\n",
               s.tiles, static_cast<unsigned long long>(s.tile_points),
               static_cast<unsigned long long>(s.options.memory_budget >> 20), s.options.temporal_block,
+              s.lambda_once ? ", lambda measured once in both runs" : "",
               s.neighbors_cached ? "kept in memory" : "re-read every step", s.tiles_in_flight);
   for (const OutOfCoreRow& row : s.rows)
     std::printf("  %-5s step, %d thread%s  %10.3g point-steps/s out of core, %10.3g in core: %3.0f%%%s\n",
@@ -141,6 +146,7 @@ std::string out_of_core_json(const OutOfCoreSection& s) {
   std::string json = "\"out_of_core\": {\"memory_budget_bytes\": " + std::to_string(s.options.memory_budget) +
                      ", \"tile_points\": " + std::to_string(s.tile_points) + ", \"tiles\": " +
                      std::to_string(s.tiles) + ", \"temporal_block\": " + std::to_string(s.options.temporal_block) +
+                     ", \"lambda_schedule\": \"" + (s.lambda_once ? "once" : "every_step") + "\"" +
                      ", \"neighbors_cached\": " + (s.neighbors_cached ? "true" : "false") +
                      ", \"tiles_in_flight\": " + std::to_string(s.tiles_in_flight) + ", \"steps_per_flow\": [";
   for (std::size_t i = 0; i < s.rows.size(); ++i) {

@@ -53,11 +53,16 @@ struct OutOfCoreSection {
   std::size_t tiles = 0;
   bool neighbors_cached = false;
   int tiles_in_flight = 0;
+  /// The automatic lambda measured once rather than every step, in both runs of every pair:
+  /// temporal blocks (temporal_block > 1) need a lambda that stays fixed between steps.
+  bool lambda_once = false;
   std::vector<OutOfCoreRow> rows;
 };
 
 /// Imports `cloud` and measures iso and aniso steps (`params_for(flow)`) out of core and in
-/// core for 1..`cores` threads, `repeats` pairs each.
+/// core for 1..`cores` threads, `repeats` pairs each. With options.temporal_block > 1, an
+/// automatic lambda of every step becomes one measured once (lambda_every_step off), for the
+/// in-core run of each pair as well. Throws what smooth_out_of_core throws.
 OutOfCoreSection measure_out_of_core(const std::vector<Vec3>& cloud, int k, int cores, int repeats,
                                      const std::function<SmoothParams(Flow)>& params_for,
                                      const OutOfCoreRateOptions& options);

@@ -9,11 +9,13 @@
 //   pointfair_throughput [--points N] [--steps S] [--k K] [--repeats R] [--json FILE]
 //                        [--sizes N1,N2,...] [--no-memory] [--no-cgal]
 //                        [--neighbors-only [--kd-tree]]
-//                        [--no-out-of-core] [--ooc-budget MIB] [--ooc-tile-points N] [--ooc-temporal-block H]
+//                        [--no-out-of-core | --out-of-core-only] [--ooc-budget MIB] [--ooc-tile-points N]
+//                        [--ooc-temporal-block H]
 //
 // Out of core (out_of_core_rate.hpp): the cloud imported into a container in a temporary
 // directory, iso and aniso steps run on it with a memory budget (default 256 MiB, the CLI's)
 // for 1..all threads, each paired with an in-core run and reported as a ratio to it.
+// --out-of-core-only measures that section alone (no build rate, step table or full run).
 //
 // --neighbors-only times the neighbourhood build alone (the path build_neighborhoods takes;
 // with --kd-tree the same lists through one k-d tree query per point, the old path) for
@@ -34,6 +36,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <fstream>
 #include <optional>
 #include <sstream>
@@ -178,7 +181,7 @@ int main(int argc, char** argv) {
   std::string json_path;
   std::vector<std::size_t> sizes;
   bool memory = true, cgal = true, neighbors_only = false, kd_tree = false;
-  bool out_of_core = true;
+  bool out_of_core = true, out_of_core_only = false;
   bench::OutOfCoreRateOptions ooc;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -188,6 +191,7 @@ int main(int argc, char** argv) {
     else if (a == "--neighbors-only") neighbors_only = true;
     else if (a == "--kd-tree") kd_tree = true;
     else if (a == "--no-out-of-core") out_of_core = false;
+    else if (a == "--out-of-core-only") out_of_core_only = true;
     else if (a == "--ooc-budget" && has_value) ooc.memory_budget = std::strtoull(argv[++i], nullptr, 10) << 20;
     else if (a == "--ooc-tile-points" && has_value) ooc.tile_points = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--ooc-temporal-block" && has_value) ooc.temporal_block = std::atoi(argv[++i]);
@@ -201,7 +205,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr,
                    "usage: %s [--points N] [--steps S] [--k K] [--repeats R] [--json FILE] "
                    "[--sizes N1,N2,...] [--no-memory] [--no-cgal] [--neighbors-only [--kd-tree]]\n"
-                   "       [--no-out-of-core] [--ooc-budget MIB] [--ooc-tile-points N] [--ooc-temporal-block H]\n",
+                   "       [--no-out-of-core | --out-of-core-only] [--ooc-budget MIB] [--ooc-tile-points N]\n"
+                   "       [--ooc-temporal-block H]\n",
                    argv[0]);
       return 2;
     }
@@ -226,6 +231,28 @@ int main(int argc, char** argv) {
   const std::vector<Vec3> cloud = make_cloud(points);
   std::printf("pointfair %s throughput: %zu points (noisy cube, random order), k = %d, %d steps, "
               "median of %d runs\n\n", version(), points, k, steps, repeats);
+
+  // The out-of-core section (out_of_core_rate.hpp); a failure is one line and exit status 1.
+  const auto measure_ooc = [&]() -> std::optional<bench::OutOfCoreSection> {
+    try {
+      return bench::measure_out_of_core(cloud, k, cores, repeats,
+                                        [&](Flow flow) { return step_params(flow, k, steps); }, ooc);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "%s: out of core: %s\n", argv[0], e.what());
+      return std::nullopt;
+    }
+  };
+  if (out_of_core_only) {
+    const std::optional<bench::OutOfCoreSection> section = measure_ooc();
+    if (!section) return 1;
+    bench::print_out_of_core(*section);
+    const std::string json = "{\"points\": " + std::to_string(points) + ", \"k\": " + std::to_string(k) +
+                             ", \"steps\": " + std::to_string(steps) + ", \"cores\": " + std::to_string(cores) +
+                             ", " + bench::out_of_core_json(*section) + "}";
+    if (!json_path.empty()) std::ofstream(json_path) << json << "\n";
+    std::printf("\n%s\n", json.c_str());
+    return 0;
+  }
 
   if (neighbors_only) {
     std::vector<Index> every(kd_tree ? points : 0);
@@ -282,9 +309,10 @@ int main(int argc, char** argv) {
   }
   set_thread_count(0);
   std::optional<bench::OutOfCoreSection> ooc_section;
-  if (out_of_core)
-    ooc_section = bench::measure_out_of_core(cloud, k, cores, repeats,
-                                             [&](Flow flow) { return step_params(flow, k, steps); }, ooc);
+  if (out_of_core) {
+    ooc_section = measure_ooc();
+    if (!ooc_section) return 1;
+  }
   double aniso_all = 0.0;
   for (const Row& row : rows)
     if (row.flow == "aniso" && row.threads == cores) aniso_all = row.rate;
