@@ -30,6 +30,8 @@ struct OutOfCoreRate {
   /// Whether the neighbour lists stayed in memory across steps, and the tiles in flight.
   bool neighbors_cached = false;
   int tiles_in_flight = 0;
+  /// Whether the steps' positions stayed in memory too (OutOfCoreReport::positions_held).
+  bool positions_held = false;
   /// The run's final positions equal smooth()'s on the same cloud to the bit (when checked).
   bool checked = false;
   bool identical = false;
@@ -52,6 +54,7 @@ struct OutOfCoreSection {
   std::uint64_t tile_points = 0;
   std::size_t tiles = 0;
   bool neighbors_cached = false;
+  bool positions_held = false;
   int tiles_in_flight = 0;
   /// The automatic lambda measured once rather than every step, in both runs of every pair:
   /// temporal blocks (temporal_block > 1) need a lambda that stays fixed between steps.

@@ -243,13 +243,15 @@ class Run {
   void read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
                            std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder = true) const;
   bool run_steps(OutOfCoreReport& report);
+  void hold_positions();
+  void release_positions();
   std::size_t write_attributes(double lambda);
   void finish(std::size_t attributes_degenerate, double lambda);
   void account(std::uint64_t working);
   std::uint64_t persistent_bytes() const {
     return cache_bytes_ + halo_bytes_ + bytes(halo_rows_) + bytes(tiles_.offsets) + bytes(tiles_.bounds) + bytes(sample_rows_) +
            bytes(sample_neighbors_) + bytes(sample_counts_) + bytes(sample_local_) + bytes(gather_rows_) +
-           bytes(gather_positions_);
+           bytes(gather_positions_) + held_bytes_;
   }
   void progress(const std::string& phase, std::uint64_t done, std::uint64_t total) const {
     if (options_.progress) options_.progress(phase, done, total);
@@ -331,6 +333,18 @@ class Run {
   // Tiles in flight in the step pipeline, and the bytes one of them may hold.
   std::uint64_t slots_ = 1;
   std::uint64_t slot_estimate_ = 0;
+  // Positions kept in memory across steps (hold_positions): while every tile's lists are cached
+  // and both fit in the budget, the steps read their source from here instead of the file (the
+  // run file still gets every step, committed as before). held_[b]: per tile, its points in
+  // the lists' order then its halo, from element held_base_[t]; held_[held_cur_] holds the
+  // step's source once held_loaded_ (the first step after holding starts reads the file).
+  // held_halo_[t][j]: the element of held_ holding halo point j of tile t in its own tile.
+  bool holding_ = false, held_loaded_ = false;
+  int held_cur_ = 0;
+  std::array<std::vector<Vec3>, 2> held_;
+  std::vector<std::uint64_t> held_base_;
+  std::vector<std::vector<std::uint64_t>> held_halo_;
+  std::uint64_t held_bytes_ = 0;
   // Rows of positions and of neighbour lists read by the steps (their I/O volume).
   std::uint64_t rows_read_ = 0;
   std::uint64_t list_rows_read_ = 0;
@@ -829,7 +843,9 @@ void Run::rebuild_neighbors(int step) {
   neighbor_source_ = current_source();
   measure_bounds();
   build_neighbors(step);
-  // The lists in memory and in tile-local indices are the old ones.
+  // The lists in memory and in tile-local indices are the old ones, and so are the halos of
+  // the positions held in memory.
+  release_positions();
   cache_.assign(tiles_.size(), {});
   cache_bytes_ = 0;
   caching_ = true;
@@ -1176,6 +1192,63 @@ std::size_t Run::pipeline_slots(std::uint64_t fixed) {
   return static_cast<std::size_t>(slots_);
 }
 
+void Run::release_positions() {
+  holding_ = held_loaded_ = false;
+  held_cur_ = 0;
+  held_ = {};
+  held_base_ = {};
+  held_halo_ = {};
+  held_bytes_ = 0;
+}
+
+void Run::hold_positions() {
+  release_positions();
+  if (blocks() || !caching_) return;
+  // Every tile's lists in memory, every halo row in this rank's tiles, and room for two
+  // copies of every tile with its halo next to what the run keeps and the tiles in flight.
+  std::vector<std::uint64_t> base(tiles_.size() + 1, 0);
+  std::uint64_t total = 0, halo_total = 0;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    base[t] = total;
+    if (tiles_.rows(t) == 0) continue;
+    const TileNeighbors* nb = cache_[t].get();
+    if (nb == nullptr) return;
+    for (const std::uint64_t g : nb->halo_rows)
+      if (g < my_first_row() || g >= my_end_row()) return;
+    total += tiles_.rows(t) + nb->halo_rows.size();
+    halo_total += nb->halo_rows.size();
+  }
+  const std::uint64_t need = 2 * total * sizeof(Vec3) + halo_total * sizeof(std::uint64_t) + bytes(base) +
+                             (my_end_row() - my_first_row()) * sizeof(Index);  // the inverse orders below
+  if (persistent_bytes() + need + slots_ * (slot_estimate_ + slot_estimate_ / 2) > options_.memory_budget) return;
+  // Tile u's point at row offset r sits at slot inverse[offsets[u] - first + r] of its lists.
+  std::vector<Index> inverse(my_end_row() - my_first_row());
+  for (std::size_t u = first_tile_; u < end_tile_; ++u) {
+    const std::uint64_t rows = tiles_.rows(u), at = tiles_.offsets[u] - my_first_row();
+    if (rows == 0) continue;
+    const std::vector<Index>& order = cache_[u]->order;
+    for (std::uint64_t r = 0; r < rows; ++r)
+      inverse[at + (order.empty() ? r : order[r])] = static_cast<Index>(r);
+  }
+  held_halo_.assign(tiles_.size(), {});
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    if (tiles_.rows(t) == 0) continue;
+    const std::vector<std::uint64_t>& halo = cache_[t]->halo_rows;
+    std::vector<std::uint64_t>& from = held_halo_[t];
+    from.resize(halo.size());
+    for (std::size_t j = 0; j < halo.size(); ++j) {
+      const std::size_t u = static_cast<std::size_t>(
+          std::upper_bound(tiles_.offsets.begin(), tiles_.offsets.end(), halo[j]) - tiles_.offsets.begin() - 1);
+      from[j] = base[u] + inverse[halo[j] - my_first_row()];
+    }
+  }
+  account(need);
+  held_base_ = std::move(base);
+  for (auto& h : held_) h.resize(total);
+  held_bytes_ = need - (my_end_row() - my_first_row()) * sizeof(Index);
+  holding_ = true;
+}
+
 bool Run::run_steps(OutOfCoreReport& report) {
   const int start = static_cast<int>(state_[kCompletedSteps]);
   report.resumed_from = start;
@@ -1234,6 +1307,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
   const std::size_t slot_count = pipeline_slots(bytes(identity));
   // After the slots are sized: the lists are cached only next to room for the tiles in flight.
   prepare_lists(report);
+  hold_positions();
   std::vector<Slot> slots(slot_count);
   const auto slots_bytes = [&] {
     std::uint64_t total = bytes(identity);
@@ -1251,11 +1325,30 @@ bool Run::run_steps(OutOfCoreReport& report) {
     for (const BlockSlot& b : block_slots) total += b.bytes();
     return total;
   };
+  // The commit of a step (commit_state) mostly waits for the disk. In a single process it is
+  // left pending and finished by this thread while the worker computes the next step's first
+  // tile: before the next step writes anything (it overwrites the buffer the commit leaves
+  // behind), before anything else touches the file, and before this function returns. The
+  // step's progress is reported once it is committed, as before.
+  bool commit_pending = false;
+  const auto finish_commit = [&] {
+    if (!commit_pending) return;
+    commit_state();
+    commit_pending = false;
+    progress("step", static_cast<std::uint64_t>(state_[kCompletedSteps]), static_cast<std::uint64_t>(params_.steps));
+  };
+  const auto finish_commit_timed = [&] {
+    const auto tc = Clock::now();
+    finish_commit();
+    report.seconds_steps += seconds_since(tc);
+  };
   for (int step = start; step < params_.steps;) {
+    if (rebuild_due(step) && state_[kNeighborsStep] != step) finish_commit_timed();
     auto t0 = Clock::now();
     if (rebuild_due(step) && state_[kNeighborsStep] != step) {
       rebuild_neighbors(step);
       prepare_lists(report);
+      hold_positions();
       ++report.rebuilds;
       if (auto_lambda_on() && !every_step) {
         lambda = sample_lambda();
@@ -1264,10 +1357,19 @@ bool Run::run_steps(OutOfCoreReport& report) {
       report.seconds_neighbors += seconds_since(t0);
       t0 = Clock::now();
     }
-    if (every_step) lambda = sample_lambda();
+    if (every_step) {
+      lambda = sample_lambda();
+      // As in smooth(), the lambda of the first step (of this call) is part of the setup.
+      if (step == start) {
+        report.seconds_neighbors += seconds_since(t0);
+        t0 = Clock::now();
+      }
+    }
     if (stops_automatically()) {
       lambdas.push_back(lambda);
       if (should_stop(params_, lambdas)) {
+        report.seconds_steps += seconds_since(t0);
+        finish_commit_timed();
         final_steps_ = step;
         stop_lambda_ = lambda;
         return true;
@@ -1302,6 +1404,64 @@ bool Run::run_steps(OutOfCoreReport& report) {
         }
       };
     } else {
+    if (holding_) {
+      // Positions held in memory: the source is held_[held_cur_] (read from the file by the
+      // first step only), each tile's step goes into held_[1 - held_cur_] in the lists' order,
+      // and into the slot's `next` in row order for the file.
+      stages.read = [&](std::size_t item, std::size_t slot) {
+        Slot& s = slots[slot];
+        s.tile = work[item];
+        s.nb = neighbors_of(s.tile);
+        const std::uint64_t rows = tiles_.rows(s.tile);
+        std::vector<Vec3>& cur = held_[static_cast<std::size_t>(held_cur_)];
+        Vec3* const local = cur.data() + held_base_[s.tile];
+        const std::vector<std::uint64_t>& from = held_halo_[s.tile];
+        if (!held_loaded_) {
+          const TileNeighbors& nb = *s.nb;
+          if (nb.order.empty()) {
+            source.read_rows(tiles_.offsets[s.tile], rows, local->data());
+          } else {
+            s.next.resize(rows);
+            source.read_rows(tiles_.offsets[s.tile], rows, s.next.data()->data());
+            for (std::uint64_t r = 0; r < rows; ++r) local[r] = s.next[nb.order[r]];
+          }
+          if (!nb.halo_rows.empty()) source.read_selected(nb.halo_rows, local[rows].data());
+          rows_read_ += rows + nb.halo_rows.size();
+        } else {
+          // The halo from the tiles holding it (step-n positions: nothing writes `cur` now).
+          for (std::size_t j = 0; j < from.size(); ++j) local[rows + j] = cur[from[j]];
+        }
+        s.next.resize(rows);
+        largest_local_ = std::max<std::uint64_t>(largest_local_, rows + from.size());
+        account(slots_bytes());
+      };
+      stages.compute = [&](std::size_t slot) {
+        Slot& s = slots[slot];
+        const std::uint64_t rows = tiles_.rows(s.tile), base = held_base_[s.tile];
+        const std::span<const Vec3> local(held_[static_cast<std::size_t>(held_cur_)].data() + base,
+                                          rows + held_halo_[s.tile].size());
+        const std::span<Vec3> out(held_[static_cast<std::size_t>(1 - held_cur_)].data() + base, rows);
+        s.stats = euler_step(local, s.nb->local, std::span<const Index>(identity.data(), rows), params_.flow,
+                             lambda, out);
+      };
+      stages.write = [&](std::size_t, std::size_t slot) {
+        Slot& s = slots[slot];
+        const std::uint64_t begin = tiles_.offsets[s.tile], rows = tiles_.rows(s.tile);
+        const Vec3* const out = held_[static_cast<std::size_t>(1 - held_cur_)].data() + held_base_[s.tile];
+        const std::vector<Index>& order = s.nb->order;
+        if (order.empty()) std::copy(out, out + rows, s.next.begin());
+        else
+          for (std::uint64_t r = 0; r < rows; ++r) s.next[order[r]] = out[r];
+        degenerate += s.stats.degenerate;
+        target.write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
+        if (every_step) {
+          auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
+          for (; it != gather_rows_.end() && *it < begin + rows; ++it)
+            gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = s.next[*it - begin];
+        }
+        s.nb.reset();
+      };
+    } else {
     stages.read = [&](std::size_t item, std::size_t slot) {
       Slot& s = slots[slot];
       s.tile = work[item];
@@ -1333,7 +1493,24 @@ bool Run::run_steps(OutOfCoreReport& report) {
       s.nb.reset();  // lists that are not cached are freed with their tile
     };
     }
+    }
+    if (commit_pending) {
+      // The pending commit: after the first tile is read (the worker computes it meanwhile),
+      // and in any case before the first write.
+      stages.read = [&, read = stages.read](std::size_t item, std::size_t slot) {
+        if (item == 1) finish_commit();
+        read(item, slot);
+      };
+      stages.write = [&, write = stages.write](std::size_t item, std::size_t slot) {
+        finish_commit();
+        write(item, slot);
+      };
+    }
     run_pipeline(work.size(), slot_count, stages);
+    if (holding_) {
+      held_cur_ = 1 - held_cur_;
+      held_loaded_ = true;
+    }
     // Collective writes: as many per rank as the rank with the most tiles.
     for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
     if (!blocks()) block_degenerate[0] = degenerate;
@@ -1353,7 +1530,14 @@ bool Run::run_steps(OutOfCoreReport& report) {
     step += h;
     state_[kCompletedSteps] = step;
     state_[kStepBuffer] = target_code();
-    commit_state();
+    committed_here += h;
+    const bool stopping = options_.stop_after_steps >= 0 && committed_here >= options_.stop_after_steps;
+    if (ranks_->size() == 1 && step < params_.steps && !stopping) {
+      commit_pending = true;
+    } else {
+      commit_state();
+      progress("step", static_cast<std::uint64_t>(step), static_cast<std::uint64_t>(params_.steps));
+    }
     report.steps = step;
     report.position_rows_read = rows_read_;
     report.list_rows_read = list_rows_read_;
@@ -1361,11 +1545,9 @@ bool Run::run_steps(OutOfCoreReport& report) {
     report.eps = eps_;
     report.degenerate = degenerate;
     report.seconds_steps += seconds_since(t0);
-    progress("step", static_cast<std::uint64_t>(step), static_cast<std::uint64_t>(params_.steps));
-    committed_here += h;
-    if (options_.stop_after_steps >= 0 && committed_here >= options_.stop_after_steps && step < params_.steps)
-      return false;
+    if (stopping && step < params_.steps) return false;
   }
+  finish_commit_timed();
   final_steps_ = params_.steps;
   return true;
 }
@@ -1502,7 +1684,10 @@ OutOfCoreReport Run::run() {
   if (auto_lambda_on()) prepare_lambda_sample();
   report.seconds_neighbors = seconds_since(t0);
   report.steps = static_cast<int>(state_[kCompletedSteps]);
-  if (!run_steps(report)) {
+  const bool steps_done = run_steps(report);
+  report.positions_held = holding_;
+  release_positions();  // the attributes need the room
+  if (!steps_done) {
     report.neighbors_cached = caching_;
     report.tiles_in_flight = static_cast<int>(slots_);
     report.peak_accounted_bytes = peak_;

@@ -144,6 +144,7 @@ TEST_F(TiledSmoothTest, PipelinedStepsGiveTheSameBits) {
       EXPECT_GT(r.tiles, 100u);
       EXPECT_EQ(r.tiles_in_flight, in_flight);
       EXPECT_EQ(r.neighbors_cached, budget > (1u << 20)) << "not the case this test is for";
+      EXPECT_EQ(r.positions_held, budget > (1u << 20)) << "not the case this test is for";
       EXPECT_LE(r.peak_accounted_bytes, budget);
       expect_identical(path("run.h5"), ref);
       std::filesystem::remove(path("run.h5"));
@@ -194,6 +195,44 @@ TEST_F(TiledSmoothTest, RebuildsNeighbourhoodsLikeInCore) {
       expect_identical(path("resumed.h5"), ref);
       std::filesystem::remove(path("resumed.h5"));
     }
+  }
+}
+
+// Plain steps with every tile's lists cached keep the positions in memory between steps
+// (the run file still gets every step): the same bits as in core, across rebuilds (which
+// change the halos) and when stopped after any step and resumed.
+TEST_F(TiledSmoothTest, PositionsHeldInMemoryGiveTheSameBits) {
+  const io::PointTable cloud = test::noisy_cube(2500, 23, 0.02);
+  SmoothParams params = few_steps(5);
+  params.shrink_compensation = 0.0;
+  params.stop_lambda_ratio = 0.0;
+  params.stop_plateau = 0.0;
+  params.rebuild_interval = 2;
+  const InCore ref = run_in_core(cloud, params);
+  ASSERT_GT(ref.report.rebuilds, 0);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 300}, 256));
+  const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params);
+  EXPECT_TRUE(r.positions_held) << "not the case this test is for";
+  EXPECT_GT(r.tiles, 4u);
+  EXPECT_EQ(r.rebuilds, ref.report.rebuilds);
+  EXPECT_EQ(r.lambda, ref.report.lambda);
+  EXPECT_LE(r.peak_accounted_bytes, OutOfCoreOptions{}.memory_budget);
+  expect_identical(path("run.h5"), ref);
+  for (const int stop : {1, 2, 3}) {
+    SCOPED_TRACE(testing::Message() << "stopped after " << stop << " steps");
+    OutOfCoreOptions first;
+    first.stop_after_steps = stop;
+    const OutOfCoreReport stopped = smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, first);
+    EXPECT_FALSE(stopped.finished);
+    EXPECT_EQ(stopped.steps, stop);
+    EXPECT_TRUE(stopped.positions_held);
+    OutOfCoreOptions resume;
+    resume.resume = true;
+    const OutOfCoreReport resumed = smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, resume);
+    EXPECT_EQ(resumed.resumed_from, stop);
+    EXPECT_TRUE(resumed.finished);
+    expect_identical(path("resumed.h5"), ref);
+    std::filesystem::remove(path("resumed.h5"));
   }
 }
 

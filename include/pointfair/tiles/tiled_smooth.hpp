@@ -82,6 +82,10 @@ struct OutOfCoreReport {
   std::size_t degenerate = 0;
   /// Neighbour lists kept in memory across steps (they fit in the budget) or re-read.
   bool neighbors_cached = false;
+  /// The steps' positions kept in memory as well (every tile's lists cached, two copies of
+  /// every tile with its halo fit in the budget, one process): each step still goes to the
+  /// run file and is committed, but is read from the file by the first step only.
+  bool positions_held = false;
   /// The largest working set the run accounted for (bytes), and the largest tile + halo.
   std::uint64_t peak_accounted_bytes = 0;
   std::uint64_t largest_tile_with_halo = 0;
