@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <string>
 
+#include "pointfair/neighborhood_size.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/shrink_compensation.hpp"
@@ -28,7 +29,13 @@ SmoothParams paper_smooth_params(SmoothParams base) {
   base.stop_lambda_ratio = 0.0;
   base.stop_plateau = 0.0;
   base.shrink_compensation = 0.0;
+  if (base.neighbors.k == 0) base.neighbors.k = kAutoKMin;
   return base;
+}
+
+SmoothParams resolve_k(SmoothParams params, std::span<const Vec3> input) {
+  if (params.neighbors.k == 0) params.neighbors.k = automatic_k(input);
+  return params;
 }
 
 bool should_stop(const SmoothParams& params, std::span<const double> lambdas) {
@@ -42,7 +49,9 @@ bool should_stop(const SmoothParams& params, std::span<const double> lambdas) {
 }
 
 void SmoothParams::validate() const {
-  neighbors.validate();
+  NeighborParams n = neighbors;
+  if (n.k == 0) n.k = kAutoKMin;  // automatic
+  n.validate();
   flow.validate();
   require(steps >= 0, "steps must be >= 0, got " + std::to_string(steps));
   require(rebuild_interval >= 0,
@@ -55,17 +64,19 @@ void SmoothParams::validate() const {
           "shrink compensation must be in [0, 1] (0 = off), got " + std::to_string(shrink_compensation));
 }
 
-SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
+SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
                     const SmoothOptions& options) {
-  params.validate();
+  requested.validate();
   require_finite(positions, "smooth");
+  auto t0 = std::chrono::steady_clock::now();
+  const SmoothParams params = resolve_k(requested, positions);
   require(options.neighbor_reference.empty() ||
               options.neighbor_reference.size() == positions.size(),
           "the neighbour reference cloud must have as many points as the input (" +
               std::to_string(options.neighbor_reference.size()) + " vs " +
               std::to_string(positions.size()) + ")");
   SmoothReport report;
-  auto t0 = std::chrono::steady_clock::now();
+  report.k = params.neighbors.k;
   const std::span<const Vec3> first_source =
       options.neighbor_reference.empty() ? std::span<const Vec3>(positions) : options.neighbor_reference;
   // The steps run on the cloud stored in Morton order (neighbours near in memory). The

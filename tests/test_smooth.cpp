@@ -182,7 +182,9 @@ TEST(Smooth, ValidateRejectsBadParameters) {
   EXPECT_THROW(bad([](SmoothParams& p) { p.rebuild_interval = -2; }).validate(), ParamError);
   EXPECT_THROW(bad([](SmoothParams& p) { p.flow.tau = 0.0; }).validate(), ParamError);
   EXPECT_THROW(bad([](SmoothParams& p) { p.flow.tau = 1.5; }).validate(), ParamError);
-  EXPECT_THROW(bad([](SmoothParams& p) { p.neighbors.k = 0; }).validate(), ParamError);
+  EXPECT_NO_THROW(bad([](SmoothParams& p) { p.neighbors.k = 0; }).validate());  // automatic
+  EXPECT_THROW(bad([](SmoothParams& p) { p.neighbors.k = -1; }).validate(), ParamError);
+  EXPECT_THROW(bad([](SmoothParams& p) { p.neighbors.k = 1025; }).validate(), ParamError);
   EXPECT_THROW(bad([](SmoothParams& p) { p.flow.features.quotient = -1; }).validate(), ParamError);
   std::vector<Vec3> points = test::random_plane(100, 1.0, 1);
   EXPECT_THROW(smooth(points, bad([](SmoothParams& p) { p.flow.tau = 2.0; })), ParamError);

@@ -91,7 +91,7 @@ struct Bench {
     std::vector<double> all;
     for (std::size_t k = 0; k < rows.size(); ++k) {
       const SmoothParams p;
-      const Neighborhoods nb = build_neighborhoods(rows[k]->points, p.neighbors);
+      const Neighborhoods nb = build_neighborhoods(rows[k]->points, resolve_k(p, rows[k]->points).neighbors);
       const double lambda = resolve_lambda(rows[k]->points, nb, p.flow);
       const PointAttributes a = compute_attributes(rows[k]->points, nb, p.flow, lambda);
       for (std::size_t i = 0; i < rows[k]->points.size(); ++i)

@@ -86,7 +86,7 @@ EvalReport evaluate(const GroundTruth& truth, const EvalInput& input, const Eval
 
   std::optional<PointAttributes> attributes;
   if (params.with_curvature) {
-    const Neighborhoods nb = build_neighborhoods(cloud, params.method.neighbors);
+    const Neighborhoods nb = build_neighborhoods(cloud, resolve_k(params.method, cloud).neighbors);
     const double lambda = resolve_lambda(cloud, nb, params.method.flow);
     attributes = compute_attributes(cloud, nb, params.method.flow, lambda);
   }

@@ -15,6 +15,7 @@
 #include <Eigen/Geometry>
 
 #include "pointfair/kd_tree.hpp"
+#include "pointfair/neighborhood_size.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/shrink_compensation.hpp"
@@ -211,6 +212,7 @@ class Run {
   OutOfCoreReport run();
 
  private:
+  void read_input_tables();
   void open_or_create();
   void create(const fs::path& partial);
   void share();
@@ -230,6 +232,7 @@ class Run {
     return params_.rebuild_interval > 0 && step > 0 && step % params_.rebuild_interval == 0;
   }
   double resolve_eps_tiled();
+  int resolve_k_tiled();
   double first_halo(std::size_t t) const;
   bool covers_all(std::size_t t, double halo) const;
   LocalSet gather_local(std::size_t t, double halo) const;
@@ -499,7 +502,7 @@ void Run::create(const fs::path& partial) {
   commit_state();
 }
 
-void Run::open_or_create() {
+void Run::read_input_tables() {
   {
     const h5::File in = h5::File::open(input_path_, false);
     tiles_ = read_tile_table(in);
@@ -514,6 +517,9 @@ void Run::open_or_create() {
       global_bounds_[c] = std::min(global_bounds_[c], b[c]);
       global_bounds_[c + 3] = std::max(global_bounds_[c + 3], b[c + 3]);
     }
+}
+
+void Run::open_or_create() {
   if (ranks_->rank() != 0) return;  // the others open the file in share()
 
   const fs::path partial = partial_name(output_);
@@ -674,6 +680,62 @@ double Run::resolve_eps_tiled() {
   const double spacing = *mid;
   if (!(spacing > 0.0)) return std::numeric_limits<double>::infinity();
   return np.eps_auto_factor * spacing;
+}
+
+int Run::resolve_k_tiled() {
+  // automatic_k(): the noise ratio of the points with original index s * stride, each over its
+  // kNoiseProbePoints nearest points, found in the tile and a halo that holds them all.
+  const std::uint64_t stride = noise_sample_stride(n_);
+  const std::uint64_t samples = (n_ + stride - 1) / stride;
+  const int want = static_cast<int>(std::min<std::uint64_t>(kNoiseProbePoints, n_));
+  // -1: not this rank's sample; -0.5: measured, not usable (NaN, which a max would not carry).
+  std::vector<double> ratios(samples, -1.0);
+  const h5::Dataset orig = file().dataset(layout::original_index);
+  std::vector<std::uint64_t> index;
+  const double saved_eps = eps_;
+  eps_ = std::numeric_limits<double>::infinity();  // first_halo: grow from the tile's spacing
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    const std::uint64_t rows = tiles_.rows(t);
+    if (rows == 0) continue;
+    index.resize(rows);
+    orig.read_rows(tiles_.offsets[t], rows, index.data());
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> mine;  // (sample, row in tile)
+    for (std::uint64_t r = 0; r < rows; ++r)
+      if (index[r] % stride == 0) mine.emplace_back(index[r] / stride, r);
+    if (mine.empty()) continue;
+    for (double halo = first_halo(t);; halo *= 2.0) {
+      const LocalSet local = gather_local(t, halo);
+      account(local.bytes() + local.positions.size() * 16);
+      const KdTree tree(local.positions);
+      const bool all = covers_all(t, halo);
+      std::atomic<bool> ok{true};
+      parallel_for(mine.size(), [&](std::size_t b, std::size_t e) {
+        std::vector<Index> idx(static_cast<std::size_t>(want));
+        std::vector<double> d2(static_cast<std::size_t>(want));
+        std::vector<ProbePoint> probe;
+        for (std::size_t i = b; i < e; ++i) {
+          const Vec3& q = local.positions[local.queries[mine[i].second]];
+          const int found = tree.nearest(q, want, std::numeric_limits<double>::infinity(), idx.data(), d2.data());
+          if (!all && (found < want || !(std::sqrt(d2[static_cast<std::size_t>(found - 1)]) < halo * (1.0 - kHaloMargin)))) {
+            ok = false;
+            continue;
+          }
+          probe.clear();
+          for (std::size_t j = 0; j < static_cast<std::size_t>(found); ++j)
+            probe.push_back({d2[j], local.positions[idx[j]]});
+          const double g = noise_ratio(probe, probe.size() == n_);
+          ratios[mine[i].first] = std::isfinite(g) ? g : -0.5;
+        }
+      }, 64);
+      if (ok) break;
+    }
+    progress("k", t + 1 - first_tile_, end_tile_ - first_tile_);
+  }
+  eps_ = saved_eps;
+  ranks_->max(ratios);  // each sample was measured by the rank of its tile
+  for (double& g : ratios)
+    if (g < 0.0) g = std::numeric_limits<double>::quiet_NaN();
+  return k_for_noise_ratio(cloud_noise_ratio(ratios));
 }
 
 void Run::build_neighbors(int step) {
@@ -1662,6 +1724,16 @@ OutOfCoreReport Run::run() {
   io::require_distinct(input_path_, output_);
   io::require_distinct(input_path_, partial_name(output_));
   OutOfCoreReport report;
+  read_input_tables();
+  if (params_.neighbors.k == 0) {
+    // The automatic k, measured on the input's positions (as smooth() does), before the run
+    // file is created (its lists have k columns), also on --resume. Every rank reads the input.
+    file_.emplace(h5::File::open(input_path_, false));
+    balance(false);
+    params_.neighbors.k = resolve_k_tiled();
+    file_.reset();
+  }
+  report.k = k();
   open_or_create();
   share();
   report.points = n_;

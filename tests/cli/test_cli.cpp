@@ -140,6 +140,24 @@ TEST_F(CliTest, PaperPresetReachesTheParametersAndLaterOptionsOverrideIt) {
   EXPECT_NE(mixed.find("\"normal\": \"robust\""), std::string::npos) << mixed;
 }
 
+// --k auto (the default) reports the k it chose; a given k is used as given; --paper fixes 16.
+TEST_F(CliTest, AutomaticKIsTheDefaultAndReported) {
+  const fs::path in = write_cloud("in.ply");
+  const auto json_of = [&](const std::string& options) {
+    const RunResult r = run("smooth " + in.string() + " " + (dir_ / "out.ply").string() + " --steps 1 --json --quiet " + options);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return r.out;
+  };
+  // Noise of 0.13 sample spacings: the automatic k is the smallest.
+  const std::string automatic = json_of("");
+  EXPECT_NE(automatic.find("\"k\": 16, \"k_auto\": true"), std::string::npos) << automatic;
+  const std::string given = json_of("--k 24");
+  EXPECT_NE(given.find("\"k\": 24, \"k_auto\": false"), std::string::npos) << given;
+  const std::string paper = json_of("--paper");
+  EXPECT_NE(paper.find("\"k\": 16, \"k_auto\": false"), std::string::npos) << paper;
+  EXPECT_EQ(run("smooth " + in.string() + " " + (dir_ / "out.ply").string() + " --k 0").exit_code, 2);
+}
+
 // A point file over --memory-budget runs out of core; the shrinkage compensation and the
 // plateau stop reach that path: the same points and the same number of steps as in core, and
 // not those of the uncompensated flow.
@@ -241,7 +259,8 @@ TEST_F(CliTest, HelpListsUnitsAndDefaults) {
                              "--features", "--edge-quotient", "--colour-by", "--json", "--threads"})
     EXPECT_NE(r.out.find(option), std::string::npos) << option;
   EXPECT_NE(r.out.find("1/length"), std::string::npos);
-  EXPECT_NE(r.out.find("Default 16"), std::string::npos);
+  EXPECT_NE(r.out.find("Default auto"), std::string::npos);
+  EXPECT_NE(r.out.find("Default 150"), std::string::npos);
 }
 
 TEST_F(CliTest, BadArgumentsExitTwo) {

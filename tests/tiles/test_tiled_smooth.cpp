@@ -86,11 +86,32 @@ TEST_F(TiledSmoothTest, BitIdenticalToInCoreForAnyTiling) {
     const OutOfCoreReport r = smooth_out_of_core(container, run, params);
     EXPECT_TRUE(r.finished);
     EXPECT_EQ(r.steps, 3);
+    EXPECT_EQ(r.k, ref.report.k);
     EXPECT_EQ(r.eps, ref.report.eps);
     EXPECT_EQ(r.lambda, ref.report.lambda);
     expect_identical(run, ref);
     std::filesystem::remove(run);
   }
+}
+
+TEST_F(TiledSmoothTest, AutomaticKLikeInCore) {
+  // Noise of about a sample spacing: the automatic k is above 16, measured from tiles with
+  // their halos (grown until the 129 nearest points of each sample are inside).
+  const io::PointTable cloud = test::noisy_cube(2500, 21, 0.08);
+  const TilingParams tilings[] = {{.max_tile_points = 1u << 20}, {.max_tile_points = 90}, {.cell_size = 0.4}};
+  SmoothParams params = few_steps(2);
+  const InCore ref = run_in_core(cloud, params);
+  EXPECT_GT(ref.report.k, 16);
+  for (const TilingParams& tiling : tilings) {
+    write_container(path("in.h5"), cloud, test::tiled(tiling, 512));
+    const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params);
+    EXPECT_TRUE(r.finished);
+    EXPECT_EQ(r.k, ref.report.k);
+    expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+  }
+  // Resumed after a stop: the same k again (measured again from the input's positions).
+  expect_stopped_and_resumed_identical(params, {}, 1, ref);
 }
 
 TEST_F(TiledSmoothTest, IsotropicConstrainedAndGatedFlowsToo) {

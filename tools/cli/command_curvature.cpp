@@ -33,7 +33,8 @@ int run_curvature(const Args& args) {
   const auto t0 = std::chrono::steady_clock::now();
   io::PointTable table = read_input(input, output.quiet);
   throw_if_interrupted();
-  const Neighborhoods neighborhoods = build_neighborhoods(table.positions, params.neighbors);
+  const NeighborParams neighbor_params = resolve_k(params, table.positions).neighbors;
+  const Neighborhoods neighborhoods = build_neighborhoods(table.positions, neighbor_params);
   throw_if_interrupted();
   const double lambda = resolve_lambda(table.positions, neighborhoods, params.flow);
   const PointAttributes attributes =
@@ -47,9 +48,9 @@ int run_curvature(const Args& args) {
   for (const auto c : attributes.feature) ++classes[static_cast<int>(c)];
   if (!output.quiet)
     std::fprintf(stderr,
-                 "curvature: %zu points (lambda %.4g, eps %.4g): %zu smooth, %zu edge, %zu corner, "
+                 "curvature: %zu points (k %d, lambda %.4g, eps %.4g): %zu smooth, %zu edge, %zu corner, "
                  "%zu degenerate, %.2f s -> %s\n",
-                 table.size(), lambda, neighborhoods.eps, classes[0], classes[1], classes[2],
+                 table.size(), neighbor_params.k, lambda, neighborhoods.eps, classes[0], classes[1], classes[2],
                  attributes.degenerate, seconds, output_path.c_str());
   if (output.json) {
     JsonObject counts;
@@ -57,7 +58,7 @@ int run_curvature(const Args& args) {
     JsonObject j;
     j.add("command", "curvature").add("version", version()).add("input", input).add("output", output_path);
     j.add("points", table.size()).add("threads", thread_count());
-    j.add("parameters", parameters_json(params, neighborhoods.eps, lambda));
+    j.add("parameters", parameters_json(params, neighbor_params.k, neighborhoods.eps, lambda));
     j.add("feature_classes", counts).add("degenerate_points", attributes.degenerate);
     j.add("seconds", seconds);
     std::cout << j.str() << std::endl;

@@ -128,7 +128,7 @@ int run_demo(const Args& args) {
   std::vector<io::PointTable> tables;  // noisy, anisotropic, isotropic: for the picture
   scores.push_back(score("noisy input", noisy, clean, band, diagonal));
   {
-    const Neighborhoods nb = build_neighborhoods(noisy, params.neighbors);
+    const Neighborhoods nb = build_neighborhoods(noisy, resolve_k(params, noisy).neighbors);
     const double lambda = resolve_lambda(noisy, nb, params.flow);
     tables.push_back(coloured_table(noisy, nb, params, lambda, output));
     write_output(dir / "octahedron_noisy.ply", tables.back(), output);
@@ -161,7 +161,7 @@ int run_demo(const Args& args) {
     s.moved = displacement_stats(noisy, positions);
     scores.push_back(s);
     JsonObject r;
-    r.add("file", (dir / file).string()).add("parameters", parameters_json(run, report.eps, report.lambda));
+    r.add("file", (dir / file).string()).add("parameters", parameters_json(run, report.k, report.eps, report.lambda));
     r.add("seconds", seconds).add("point_steps_per_second", s.rate);
     r.add("rms_distance_over_diagonal", s.rms_all).add("rms_near_edges_over_diagonal", s.rms_edges)
         .add("rms_on_faces_over_diagonal", s.rms_faces);

@@ -12,6 +12,7 @@
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/import.hpp"
+#include "pointfair/neighborhood_size.hpp"
 #include "pointfair/version.hpp"
 
 namespace pointfair::cli {
@@ -63,7 +64,7 @@ int run_import(const Args& args) {
   io::require_distinct(input, output);
 
   const auto t0 = std::chrono::steady_clock::now();
-  options.tiling.max_tile_points = tile_points > 0 ? tile_points : tile_points_for_budget(budget, 16);
+  options.tiling.max_tile_points = tile_points > 0 ? tile_points : tile_points_for_budget(budget, kAutoKMax);
   options.tiling.cell_size = cell_size;
   options.source_name = std::filesystem::path(input).filename().string();
   options.source_size = std::filesystem::file_size(input);

@@ -86,7 +86,7 @@ int run_render(const Args& args) {
     std::vector<double> s;
     if ((colour == "kmax" || colour == "laplacian") && tables.back().size() > 3) {
       const auto& points = tables.back().positions;
-      const Neighborhoods nb = build_neighborhoods(points, method.neighbors);
+      const Neighborhoods nb = build_neighborhoods(points, resolve_k(method, points).neighbors);
       const double lambda = resolve_lambda(points, nb, method.flow);
       const PointAttributes a = compute_attributes(points, nb, method.flow, lambda);
       s.resize(points.size());

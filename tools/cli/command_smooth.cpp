@@ -88,10 +88,10 @@ int run_smooth(const Args& args) {
                           : 0.0;
   if (!output.quiet) {
     std::fprintf(stderr,
-                 "smooth: %zu points, %d %s steps (tau %g, lambda %.4g, eps %.4g) in %.2f s "
+                 "smooth: %zu points, %d %s steps (k %d, tau %g, lambda %.4g, eps %.4g) in %.2f s "
                  "(%.3g point-steps/s); displacement mean %.4g, max %.4g (%.3g%% of the diagonal); "
                  "%zu degenerate points -> %s\n",
-                 table.size(), report.steps, to_string(params.flow.flow).c_str(), params.flow.tau,
+                 table.size(), report.steps, to_string(params.flow.flow).c_str(), report.k, params.flow.tau,
                  report.lambda, report.eps, seconds_total, rate, moved.mean, moved.max,
                  moved.diagonal > 0 ? 100.0 * moved.max / moved.diagonal : 0.0, degenerate_final,
                  output_path.c_str());
@@ -105,7 +105,7 @@ int run_smooth(const Args& args) {
     j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
     j.add("points", table.size()).add("steps", report.steps).add("rebuilds", report.rebuilds);
     j.add("threads", thread_count());
-    j.add("parameters", parameters_json(params, report.eps, report.lambda));
+    j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
     j.add("neighbors_from", reference);
     j.add("seconds", seconds).add("point_steps_per_second", rate);
     j.add("displacement", to_json(moved)).add("degenerate_points", degenerate_final);

@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "pointfair/neighborhood_size.hpp"
 #include "container_export.hpp"
 #include "interrupt.hpp"
 #include "out_of_core.hpp"
@@ -100,13 +101,15 @@ int run_smooth_out_of_core(const Args& args) {
     // The PLY header's count, or a counting pass over a text file: the cloud is not loaded.
     const std::uint64_t points = count_points(input);
     const bool compensated = params.shrink_compensation > 0.0;
-    if (!container_out && in_core_bytes(points, params.neighbors.k, compensated) <= ooc.memory_budget && !ooc.resume) {
+    // The automatic k is not known before the cloud is read: size for the largest it picks.
+    const int k_bound = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
+    if (!container_out && in_core_bytes(points, k_bound, compensated) <= ooc.memory_budget && !ooc.resume) {
       return run_smooth(without_budget(args));
     }
     io::require_distinct(input, output_path);
     imported = fs::path(output_path).string() + ".input.h5";
     tiles::StreamImportOptions import;
-    import.container.tiling.max_tile_points = tile_points_for_budget(ooc.memory_budget, params.neighbors.k);
+    import.container.tiling.max_tile_points = tile_points_for_budget(ooc.memory_budget, k_bound);
     import.container.source_name = fs::path(input).filename().string();
     import.container.source_size = fs::file_size(input);
     // The import streams the file within the budget (at least its minimum of 16 MiB).
@@ -163,11 +166,11 @@ int run_smooth_out_of_core(const Args& args) {
                           : 0.0;
   if (!output.quiet)
     std::fprintf(stderr,
-                 "smooth: %llu points in %zu tiles, %d steps (%d resumed) out of core (lambda %.4g, eps %.4g) "
+                 "smooth: %llu points in %zu tiles, %d steps (%d resumed) out of core (k %d, lambda %.4g, eps %.4g) "
                  "in %.2f s (%.3g point-steps/s); working memory %.1f MiB of %.1f MiB; %zu degenerate "
                  "points -> %s\n",
                  static_cast<unsigned long long>(report.points), report.tiles, report.steps,
-                 report.resumed_from, report.lambda, report.eps, seconds_total, rate,
+                 report.resumed_from, report.k, report.lambda, report.eps, seconds_total, rate,
                  static_cast<double>(report.peak_accounted_bytes) / (1 << 20),
                  static_cast<double>(ooc.memory_budget) / (1 << 20), report.degenerate, output_path.c_str());
   if (output.json) {
@@ -178,14 +181,14 @@ int run_smooth_out_of_core(const Args& args) {
     j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
     j.add("out_of_core", true).add("points", static_cast<std::size_t>(report.points)).add("tiles", report.tiles);
     j.add("steps", report.steps).add("resumed_from", report.resumed_from).add("threads", thread_count());
-    j.add("parameters", parameters_json(params, report.eps, report.lambda));
+    j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
     j.add("memory_budget_bytes", static_cast<std::size_t>(ooc.memory_budget));
     j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
     j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));
     j.add("neighbors_cached", report.neighbors_cached).add("tiles_in_flight", report.tiles_in_flight);
     j.add("rebuilds", report.rebuilds).add("temporal_block", ooc.temporal_block);
     // Bytes the steps read: positions (24 per row) and neighbour lists (4 k + 2 per row).
-    const std::size_t list_row_bytes = 4 * static_cast<std::size_t>(params.neighbors.k) + 2;
+    const std::size_t list_row_bytes = 4 * static_cast<std::size_t>(report.k) + 2;
     j.add("bytes_read_per_step",
           steps_here > 0 ? static_cast<double>(report.position_rows_read * 24 + report.list_rows_read * list_row_bytes) /
                                steps_here

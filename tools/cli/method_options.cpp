@@ -50,8 +50,14 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
          "--steps 100 --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0. Options "
          "after it override it.",
          [&s] { s = paper_smooth_params(s); });
-  p.value("k", "N", "Neighbours per point, the point itself not counted (1..1024). Default 16.",
-          [&s](std::string_view v) { s.neighbors.k = parse_int(v, "--k"); });
+  p.value("k", "N|auto",
+          "Neighbours per point, the point itself not counted (1..1024). 'auto': chosen from the "
+          "input's noise over its sample spacing, 16 under light noise up to 48 under noise of "
+          "several spacings (--paper: 16). Default auto.",
+          [&s](std::string_view v) {
+            s.neighbors.k = v == "auto" ? 0 : parse_int(v, "--k");
+            if (s.neighbors.k == 0 && v != "auto") throw UsageError("--k must be 1..1024 or 'auto'");
+          });
   p.value("eps", "LENGTH|auto|inf",
           "Radius bound of the eps-k neighbourhood, in the cloud's length unit. 'auto': "
           "--eps-factor times the median distance to the k-th neighbour; 'inf': plain k-nearest. "

@@ -99,9 +99,9 @@ JsonObject to_json(const DisplacementStats& s) {
   return j;
 }
 
-JsonObject parameters_json(const SmoothParams& p, double eps, double lambda) {
+JsonObject parameters_json(const SmoothParams& p, int k, double eps, double lambda) {
   JsonObject j;
-  j.add("k", p.neighbors.k).add("eps", eps).add("steps", p.steps).add("tau", p.flow.tau);
+  j.add("k", k).add("k_auto", p.neighbors.k == 0).add("eps", eps).add("steps", p.steps).add("tau", p.flow.tau);
   j.add("flow", to_string(p.flow.flow)).add("cutoff", to_string(p.flow.cutoff));
   j.add("lambda", lambda).add("lambda_auto", p.flow.lambda == 0.0);
   j.add("lambda_factor", p.flow.lambda_auto_factor).add("lambda_every_step", p.lambda_every_step);

@@ -32,6 +32,7 @@ DisplacementStats displacement_stats(std::span<const Vec3> before, std::span<con
 JsonObject to_json(const DisplacementStats& stats);
 
 /// The method's parameters as a JSON object (with resolved eps and lambda).
-JsonObject parameters_json(const SmoothParams& params, double eps, double lambda);
+/// `k`: the neighbourhood size used (SmoothReport::k); "k_auto" says whether it was chosen.
+JsonObject parameters_json(const SmoothParams& params, int k, double eps, double lambda);
 
 }  // namespace pointfair::cli

@@ -38,6 +38,7 @@
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/mpi_ranks.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
+#include "pointfair/neighborhood_size.hpp"
 #include "pointfair/version.hpp"
 
 namespace {
@@ -110,14 +111,14 @@ int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
   if (talk)
     std::fprintf(stderr,
                  "%s: %llu points in %zu tiles (halos %.1f%% of the points) on %d ranks, %d steps (%d resumed)%s "
-                 "(lambda %.4g, eps %.4g) in "
+                 "(k %d, lambda %.4g, eps %.4g) in "
                  "%.2f s (neighbours %.2f s, steps %.2f s, attributes %.2f s on rank 0) -> %s\n",
                  kProgram, static_cast<unsigned long long>(report.points), report.tiles,
                  report.points > 0 ? 100.0 * static_cast<double>(report.halo_points) / static_cast<double>(report.points)
                                    : 0.0,
                  ranks.size(), report.steps,
                  report.resumed_from, report.finished ? "" : ", stopped (POINTFAIR_MPI_STOP_AFTER_STEPS)",
-                 report.lambda, report.eps, seconds, report.seconds_neighbors, report.seconds_steps,
+                 report.k, report.lambda, report.eps, seconds, report.seconds_neighbors, report.seconds_steps,
                  report.seconds_attributes, report.finished ? output.c_str() : tiles::partial_name(output).c_str());
   return 0;
 }
@@ -162,7 +163,7 @@ int run_import(const std::vector<std::string>& args, tiles::Ranks& ranks) {
     throw cli::UsageError("pointfair_mpi import: OUT must be a .h5 file, got '" + output + "'");
   io::require_distinct(input, output);
   const auto t0 = std::chrono::steady_clock::now();
-  stream.container.tiling.max_tile_points = tile_points > 0 ? tile_points : cli::tile_points_for_budget(budget, 16);
+  stream.container.tiling.max_tile_points = tile_points > 0 ? tile_points : cli::tile_points_for_budget(budget, kAutoKMax);
   stream.container.source_name = std::filesystem::path(input).filename().string();
   std::error_code ec;
   stream.container.source_size = std::filesystem::file_size(input, ec);

@@ -77,6 +77,8 @@ struct OutOfCoreReport {
   int resumed_from = 0;
   bool finished = false;
   double eps = 0.0;
+  /// The neighbourhood size used (the automatic choice or neighbors.k).
+  int k = 0;
   /// The cut-off threshold of the last step (as SmoothReport::lambda).
   double lambda = 0.0;
   std::size_t degenerate = 0;
