@@ -230,7 +230,7 @@ TEST(HostileGeometry, BadParametersAreRefusedBeforeAnyWork) {
   };
   refused([](SmoothParams& p) { p.neighbors.eps = std::numeric_limits<double>::quiet_NaN(); });
   refused([](SmoothParams& p) { p.neighbors.eps = -1.0; });
-  refused([](SmoothParams& p) { p.neighbors.k = 0; });
+  refused([](SmoothParams& p) { p.neighbors.k = -1; });  // 0 is the automatic k
   refused([](SmoothParams& p) { p.flow.tau = std::numeric_limits<double>::quiet_NaN(); });
   refused([](SmoothParams& p) { p.flow.lambda = std::numeric_limits<double>::infinity(); });
   refused([](SmoothParams& p) { p.steps = -1; });
