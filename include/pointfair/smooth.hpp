@@ -57,7 +57,7 @@ struct SmoothParams {
   /// Second automatic stop (dimensionless, in [0, 1); 0 = off), under the same conditions as
   /// stop_lambda_ratio: with lambda_s the automatic lambda measured before step s + 1
   /// (lambda_0 the input's), stop before step n + 1 (n >= 8 steps done) once
-  /// lambda_n > (1 - stop_plateau) lambda_{n-4} and lambda_n <= 0.3 lambda_0. On a curved
+  /// lambda_n > (1 - stop_plateau) lambda_{n-4} and lambda_n <= 0.7 lambda_0. On a curved
   /// surface the median |kappa_ij| falls to the surface's own curvature, not to 0 (the
   /// bunny's clean samples score 0.12 of its noisy input at 0.1% noise): once it stops falling the noise is gone. 0.03 measured
   /// best with the compensated flow (README, Quality). The out-of-core smoother stops at the
