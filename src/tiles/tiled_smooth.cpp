@@ -233,6 +233,11 @@ class Run {
   }
   double resolve_eps_tiled();
   int resolve_k_tiled();
+  // Calls measure(sample, indices, squared distances, local positions) for every point of this
+  // rank's tiles whose original index is a multiple of `stride`, with its `want` nearest points
+  // (itself included) among its tile and a halo grown until it holds them all. Concurrent.
+  template <class Measure>
+  void for_each_sample_knn(std::uint64_t stride, int want, const char* stage, Measure&& measure);
   double first_halo(std::size_t t) const;
   bool covers_all(std::size_t t, double halo) const;
   LocalSet gather_local(std::size_t t, double halo) const;
@@ -630,66 +635,8 @@ LocalSet Run::gather_local(std::size_t t, double halo) const {
   return s;
 }
 
-double Run::resolve_eps_tiled() {
-  NeighborParams np = params_.neighbors;
-  np.validate();
-  if (np.eps > 0.0) return np.eps;
-  if (n_ < 2) return std::numeric_limits<double>::infinity();
-  // The in-core resolve_eps: median distance to the (k+1)-th nearest point (the point itself
-  // included) over the points with original index s * stride.
-  const std::uint64_t stride = std::max<std::uint64_t>(1, n_ / 65536);
-  const std::uint64_t samples = (n_ + stride - 1) / stride;
-  const int want = static_cast<int>(std::min<std::uint64_t>(static_cast<std::uint64_t>(k()) + 1, n_));
-  std::vector<double> kth(samples, 0.0);
-  const h5::Dataset orig = file().dataset(layout::original_index);
-  std::vector<std::uint64_t> index;
-  eps_ = std::numeric_limits<double>::infinity();  // the halo search below is unbounded
-  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
-    const std::uint64_t rows = tiles_.rows(t);
-    if (rows == 0) continue;
-    index.resize(rows);
-    orig.read_rows(tiles_.offsets[t], rows, index.data());
-    std::vector<std::pair<std::uint64_t, std::uint64_t>> mine;  // (sample, row in tile)
-    for (std::uint64_t r = 0; r < rows; ++r)
-      if (index[r] % stride == 0) mine.emplace_back(index[r] / stride, r);
-    if (mine.empty()) continue;
-    for (double halo = first_halo(t);; halo *= 2.0) {
-      const LocalSet local = gather_local(t, halo);
-      account(local.bytes() + local.positions.size() * 16);
-      const KdTree tree(local.positions);
-      const bool all = covers_all(t, halo);
-      std::atomic<bool> ok{true};
-      parallel_for(mine.size(), [&](std::size_t b, std::size_t e) {
-        std::vector<Index> idx(static_cast<std::size_t>(want));
-        std::vector<double> d2(static_cast<std::size_t>(want));
-        for (std::size_t i = b; i < e; ++i) {
-          const Vec3& q = local.positions[local.queries[mine[i].second]];
-          const int found = tree.nearest(q, want, std::numeric_limits<double>::infinity(), idx.data(), d2.data());
-          const double d = found > 0 ? std::sqrt(d2[static_cast<std::size_t>(found - 1)]) : 0.0;
-          if (!all && (found < want || !(d < halo * (1.0 - kHaloMargin)))) ok = false;
-          kth[mine[i].first] = d;
-        }
-      }, 256);
-      if (ok) break;
-    }
-    progress("eps", t + 1 - first_tile_, end_tile_ - first_tile_);
-  }
-  ranks_->max(kth);  // each sample was measured by the rank of its tile, 0 elsewhere
-  auto mid = kth.begin() + static_cast<std::ptrdiff_t>(samples / 2);
-  std::nth_element(kth.begin(), mid, kth.end());
-  const double spacing = *mid;
-  if (!(spacing > 0.0)) return std::numeric_limits<double>::infinity();
-  return np.eps_auto_factor * spacing;
-}
-
-int Run::resolve_k_tiled() {
-  // automatic_k(): the noise ratio of the points with original index s * stride, each over its
-  // kNoiseProbePoints nearest points, found in the tile and a halo that holds them all.
-  const std::uint64_t stride = noise_sample_stride(n_);
-  const std::uint64_t samples = (n_ + stride - 1) / stride;
-  const int want = static_cast<int>(std::min<std::uint64_t>(kNoiseProbePoints, n_));
-  // -1: not this rank's sample; -0.5: measured, not usable (NaN, which a max would not carry).
-  std::vector<double> ratios(samples, -1.0);
+template <class Measure>
+void Run::for_each_sample_knn(std::uint64_t stride, int want, const char* stage, Measure&& measure) {
   const h5::Dataset orig = file().dataset(layout::original_index);
   std::vector<std::uint64_t> index;
   const double saved_eps = eps_;
@@ -712,26 +659,64 @@ int Run::resolve_k_tiled() {
       parallel_for(mine.size(), [&](std::size_t b, std::size_t e) {
         std::vector<Index> idx(static_cast<std::size_t>(want));
         std::vector<double> d2(static_cast<std::size_t>(want));
-        std::vector<ProbePoint> probe;
         for (std::size_t i = b; i < e; ++i) {
           const Vec3& q = local.positions[local.queries[mine[i].second]];
           const int found = tree.nearest(q, want, std::numeric_limits<double>::infinity(), idx.data(), d2.data());
+          // Settled when the halo holds all `want` points: the farthest lies inside it.
           if (!all && (found < want || !(std::sqrt(d2[static_cast<std::size_t>(found - 1)]) < halo * (1.0 - kHaloMargin)))) {
             ok = false;
             continue;
           }
-          probe.clear();
-          for (std::size_t j = 0; j < static_cast<std::size_t>(found); ++j)
-            probe.push_back({d2[j], local.positions[idx[j]]});
-          const double g = noise_ratio(probe, probe.size() == n_);
-          ratios[mine[i].first] = std::isfinite(g) ? g : -0.5;
+          measure(mine[i].first, std::span<const Index>(idx.data(), static_cast<std::size_t>(found)),
+                  std::span<const double>(d2.data(), static_cast<std::size_t>(found)), local.positions);
         }
       }, 64);
       if (ok) break;
     }
-    progress("k", t + 1 - first_tile_, end_tile_ - first_tile_);
+    progress(stage, t + 1 - first_tile_, end_tile_ - first_tile_);
   }
   eps_ = saved_eps;
+}
+
+double Run::resolve_eps_tiled() {
+  NeighborParams np = params_.neighbors;
+  np.validate();
+  if (np.eps > 0.0) return np.eps;
+  if (n_ < 2) return std::numeric_limits<double>::infinity();
+  // The in-core resolve_eps: median distance to the (k+1)-th nearest point (the point itself
+  // included) over the points with original index s * stride.
+  const std::uint64_t stride = std::max<std::uint64_t>(1, n_ / 65536);
+  const std::uint64_t samples = (n_ + stride - 1) / stride;
+  const int want = static_cast<int>(std::min<std::uint64_t>(static_cast<std::uint64_t>(k()) + 1, n_));
+  std::vector<double> kth(samples, 0.0);
+  for_each_sample_knn(stride, want, "eps",
+                      [&](std::uint64_t sample, std::span<const Index>, std::span<const double> d2,
+                          std::span<const Vec3>) { kth[sample] = d2.empty() ? 0.0 : std::sqrt(d2.back()); });
+  ranks_->max(kth);  // each sample was measured by the rank of its tile, 0 elsewhere
+  auto mid = kth.begin() + static_cast<std::ptrdiff_t>(samples / 2);
+  std::nth_element(kth.begin(), mid, kth.end());
+  const double spacing = *mid;
+  if (!(spacing > 0.0)) return std::numeric_limits<double>::infinity();
+  return np.eps_auto_factor * spacing;
+}
+
+int Run::resolve_k_tiled() {
+  // automatic_k(): the noise ratio of the points with original index s * stride, each over its
+  // kNoiseProbePoints nearest points, found in the tile and a halo that holds them all.
+  const std::uint64_t stride = noise_sample_stride(n_);
+  const std::uint64_t samples = (n_ + stride - 1) / stride;
+  const int want = static_cast<int>(std::min<std::uint64_t>(kNoiseProbePoints, n_));
+  // -1: not this rank's sample; -0.5: measured, not usable (NaN, which a max would not carry).
+  std::vector<double> ratios(samples, -1.0);
+  for_each_sample_knn(stride, want, "k",
+                      [&](std::uint64_t sample, std::span<const Index> idx, std::span<const double> d2,
+                          std::span<const Vec3> positions) {
+                        std::vector<ProbePoint> probe;
+                        probe.reserve(idx.size());
+                        for (std::size_t j = 0; j < idx.size(); ++j) probe.push_back({d2[j], positions[idx[j]]});
+                        const double g = noise_ratio(probe, probe.size() == n_);
+                        ratios[sample] = std::isfinite(g) ? g : -0.5;
+                      });
   ranks_->max(ratios);  // each sample was measured by the rank of its tile
   for (double& g : ratios)
     if (g < 0.0) g = std::numeric_limits<double>::quiet_NaN();
