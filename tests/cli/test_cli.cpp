@@ -55,6 +55,13 @@ class CliTest : public ::testing::Test {
     return r;
   }
 
+  // The --json summary of `smooth IN OUT.ply --json --quiet OPTIONS`, which must succeed.
+  std::string smooth_json(const fs::path& in, const std::string& options) {
+    const RunResult r = run("smooth " + in.string() + " " + (dir_ / "out.ply").string() + " --json --quiet " + options);
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return r.out;
+  }
+
   // Files in the test directory other than `keep`.
   std::vector<std::string> files_except(std::initializer_list<std::string> keep) const {
     std::vector<std::string> names;
@@ -123,11 +130,7 @@ TEST_F(CliTest, SmoothWritesResultAndJsonSummary) {
 // --paper sets the paper's reading; an option after it overrides it.
 TEST_F(CliTest, PaperPresetReachesTheParametersAndLaterOptionsOverrideIt) {
   const fs::path in = write_cloud("in.ply");
-  const auto params = [&](const std::string& options) {
-    const RunResult r = run("smooth " + in.string() + " " + (dir_ / "out.ply").string() + " --json --quiet " + options);
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return r.out;
-  };
+  const auto params = [&](const std::string& options) { return smooth_json(in, options); };
   const std::string defaults = params("--steps 1");
   EXPECT_NE(defaults.find("\"shrink_compensation\": 1,"), std::string::npos) << defaults;
   EXPECT_NE(defaults.find("\"cutoff_origin\": \"plane\""), std::string::npos) << defaults;
@@ -143,11 +146,7 @@ TEST_F(CliTest, PaperPresetReachesTheParametersAndLaterOptionsOverrideIt) {
 // --k auto (the default) reports the k it chose; a given k is used as given; --paper fixes 16.
 TEST_F(CliTest, AutomaticKIsTheDefaultAndReported) {
   const fs::path in = write_cloud("in.ply");
-  const auto json_of = [&](const std::string& options) {
-    const RunResult r = run("smooth " + in.string() + " " + (dir_ / "out.ply").string() + " --steps 1 --json --quiet " + options);
-    EXPECT_EQ(r.exit_code, 0) << r.err;
-    return r.out;
-  };
+  const auto json_of = [&](const std::string& options) { return smooth_json(in, "--steps 1 " + options); };
   // Noise of 0.13 sample spacings: the automatic k is the smallest.
   const std::string automatic = json_of("");
   EXPECT_NE(automatic.find("\"k\": 16, \"k_auto\": true"), std::string::npos) << automatic;
