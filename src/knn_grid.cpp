@@ -32,8 +32,14 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::int64_t kAxisCells = std::int64_t{1} << 21;
 constexpr int kProbes = 16;
-// Blocks of (2R+1)^3 cells are tried for R = 1 .. kMaxRing before the k-d tree.
+// Blocks of (2R+1)^3 cells are tried for R = 1 .. kMaxRing, each of at most the budget's points.
 constexpr std::int64_t kMaxRing = 3;
+// The queries they leave (points far off a thick noisy surface, blocks denser than the
+// budget) are searched one at a time in blocks of up to kWideRing cells and kWideBudget points
+// before the k-d tree: a 4M-point noisy cube (noise 3.5 sample spacings) left 527 of them, and
+// a tree over all its points took most of the build's time.
+constexpr std::int64_t kWideRing = 24;
+constexpr std::size_t kWideBudget = std::size_t{1} << 18;
 // Cell size over the median distance to the k-th nearest point.
 constexpr double kCellFactor = 1.1;
 // With a finite eps below that, the cell is eps enlarged by this factor: a query anywhere in
@@ -657,10 +663,12 @@ constexpr int kRows1[9][2] = {{0, 0}, {-1, 0}, {1, 0}, {0, -1}, {0, 1}, {-1, -1}
 
 class Search {
  public:
+  // `wide`: the search of the queries the first one left (kWideRing, kWideBudget).
   Search(const CellGrid& g, const Queries& q, int k, double eps, Neighborhoods& out,
-         std::span<double> last_d2, std::vector<std::uint8_t>& unresolved)
+         std::span<double> last_d2, std::vector<std::uint8_t>& unresolved, bool wide = false)
       : g_(g), q_(q), k_(k), want_(k + 1), max_d2_(std::isinf(eps) ? eps : eps * eps),
-        budget_(std::max<std::size_t>(2048, 48 * static_cast<std::size_t>(k + 1))),
+        max_ring_(wide ? kWideRing : kMaxRing),
+        budget_(wide ? kWideBudget : std::max<std::size_t>(2048, 48 * static_cast<std::size_t>(k + 1))),
         floor_d2_(std::isfinite(g.cell) ? 1e-6 * g.cell * g.cell : kInf),
         out_(out), last_d2_(last_d2), unresolved_(unresolved), kernel_(default_knn_kernel()) {}
 
@@ -683,7 +691,7 @@ class Search {
                                     static_cast<std::int64_t>(key / (d0 * d1))};
       s.pending.clear();
       for (Index e = q_.first(qc); e < q_.first(qc + 1); ++e) s.pending.push_back(e);
-      for (std::int64_t ring = 1; ring <= kMaxRing && !s.pending.empty(); ++ring) {
+      for (std::int64_t ring = 1; ring <= max_ring_ && !s.pending.empty(); ++ring) {
         if (!gather(s.block, cell, ring, ring == 1 ? cursor : nullptr)) break;
         s.still.clear();
         for (const Index e : s.pending)
@@ -691,6 +699,28 @@ class Search {
         s.pending.swap(s.still);
       }
       for (const Index e : s.pending) unresolved_[e] = 1;
+    }
+  }
+
+  // Queries entries[b, e) one at a time, each in blocks of radius 1 .. max_ring_ around its
+  // cell; unresolved_ is cleared for those settled.
+  void run_entries(std::span<const Index> entries, std::size_t b, std::size_t e) const {
+    Scratch s;
+    s.best.resize(static_cast<std::size_t>(want_) + 1);
+    s.ids.resize(static_cast<std::size_t>(want_));
+    s.guess = std::isfinite(g_.cell) ? g_.cell * g_.cell : kInf;
+    for (std::size_t i = b; i < e; ++i) {
+      const Index entry = entries[i];
+      const std::size_t pos = q_.pos(entry);
+      const std::int64_t cell[3] = {cell_coordinate(g_, g_.x[pos], 0), cell_coordinate(g_, g_.y[pos], 1),
+                                    cell_coordinate(g_, g_.z[pos], 2)};
+      for (std::int64_t ring = 1; ring <= max_ring_; ++ring) {
+        if (!gather(s.block, cell, ring, nullptr)) break;
+        if (answer(s, entry, cell, ring)) {
+          unresolved_[entry] = 0;
+          break;
+        }
+      }
     }
   }
 
@@ -902,7 +932,7 @@ class Search {
   // Completes a result the block could not settle: offers the points of every cell that meets
   // the box q +- r and lies outside the block, r being the current want-th distance (or eps
   // when fewer were found). Every point left out is then farther than r. False if r is
-  // unbounded or the box spans more than 2 kMaxRing + 1 cells on an axis.
+  // unbounded or the box spans more than 2 max_ring_ + 1 cells on an axis.
   bool extend(Scratch& s, const double* q, const std::int64_t* cell, std::int64_t ring,
               Nearest& nearest) const {
     const double r2 = nearest.full() ? nearest.last() : max_d2_;
@@ -913,7 +943,7 @@ class Search {
       const double u = (q[a] - g_.origin[a]) * g_.inverse_cell;
       lo[a] = clamp_cell(u - reach, a);
       hi[a] = clamp_cell(u + reach, a);
-      if (hi[a] - lo[a] > 2 * kMaxRing) return false;
+      if (hi[a] - lo[a] > 2 * max_ring_) return false;
     }
     Candidates& extra = s.extra;
     extra.m = 0;
@@ -965,6 +995,7 @@ class Search {
   int k_;
   int want_;
   double max_d2_;
+  std::int64_t max_ring_;
   std::size_t budget_;
   double floor_d2_;  // the smallest threshold tried after 0 (duplicates)
   Neighborhoods& out_;
@@ -993,6 +1024,11 @@ Neighborhoods search(const CellGrid& g, const Queries& q, int k, double eps, con
   std::vector<Index> rest;
   for (std::size_t e = 0; e < unresolved.size(); ++e)
     if (unresolved[e] != 0) rest.push_back(static_cast<Index>(e));
+  if (!rest.empty() && std::isfinite(g.cell)) {
+    const Search wide(g, q, k, eps, out, last_d2, unresolved, true);
+    parallel_for(rest.size(), [&](std::size_t b, std::size_t e) { wide.run_entries(rest, b, e); }, 16);
+    std::erase_if(rest, [&](Index e) { return unresolved[e] == 0; });
+  }
   search.fallback(rest, tree);
   return out;
 }

@@ -146,6 +146,24 @@ TEST(KnnGrid, FarOutlierNeitherCostsMemoryNorChangesTheLists) {
   expect_grid_exact(spread, 16, kInf, 17, "many outliers");
 }
 
+// Points 10 to 25 cells off the surface, and a cluster denser than a block's budget: the first
+// search leaves them, the wide blocks settle them (before any k-d tree), and the lists stay exact.
+TEST(KnnGrid, PointsFarOffTheSurfaceAndDenseClustersStayExact) {
+  std::vector<Vec3> points = cube_surface(8000, 0.002, 21);
+  const double cell = build_cell_grid(points, 16, kInf).cell;
+  for (int i = 0; i < 60; ++i) {
+    const double off = (10.0 + 0.25 * i) * cell;  // beyond 3 rings, within the wide ones
+    const double t = -0.8 + 0.027 * i;
+    points.emplace_back(i % 3 == 0 ? 1.0 + off : t, i % 3 == 1 ? -1.0 - off : t, i % 3 == 2 ? 1.0 + off : 0.5 * t);
+  }
+  for (int i = 0; i < 2500; ++i)  // a cluster far denser than the surface, more than a block holds
+    points.emplace_back(0.3 + 1e-5 * (i % 17), -1.0 + 1e-5 * (i % 13), 0.2 + 1e-5 * (i % 11));
+  for (const int k : {8, 16}) {
+    expect_grid_exact(points, k, kInf, 61, "far points");
+    expect_grid_exact(points, k, 0.5, 61, "far points, eps");
+  }
+}
+
 TEST(KnnGrid, QueriesSubsetWithTreeEqualsFullRows) {
   const std::vector<Vec3> points = cube_surface(4000, 0.003, 21);
   const KdTree tree(points);

@@ -13,7 +13,9 @@
 // distance from the query to the block's boundary. Otherwise the query also searches the cells
 // beyond the block that meet the box of that radius around it, which settles it exactly; a
 // query that finds fewer than k + 1 points with no bound tries the 5 x 5 x 5 and 7 x 7 x 7
-// blocks, and last the k-d tree (or a scan of every point when only a few such queries are
+// blocks. The queries left (points far off a thickly noisy surface, blocks denser than their
+// budget of points) are searched one at a time in blocks of up to 49 x 49 x 49 cells, and the
+// few still left by the k-d tree (or a scan of every point when only a few such queries are
 // left). Comparisons against the block's boundary keep margins far above the rounding of the
 // cell coordinates, so a far offset (UTM-like coordinates) cannot make a list inexact.
 //
