@@ -308,7 +308,7 @@ std::vector<std::string> split(const std::string& text) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   Bench bench;
   bench.out = "build/out/quality";
   fs::path data;
@@ -349,6 +349,13 @@ int main(int argc, char** argv) {
                    "(default sphere,torus at 20000; '' for none)\n");
       return a == "--help" ? 0 : 2;
     }
+  }
+  for (const auto& level : split(noise_levels))  // so do bad noise levels
+    if (!(std::stod(level) >= 0.0)) throw std::runtime_error("noise level must be >= 0, got " + level);
+  for (const auto& shape : split(shapes)) {  // an unknown shape fails now, not after the models
+    eval::TruthSpec spec;
+    spec.shape = shape;
+    (void)eval::GroundTruth(spec);
   }
   fs::create_directories(bench.out);
   const auto t0 = std::chrono::steady_clock::now();
@@ -415,4 +422,13 @@ int main(int argc, char** argv) {
   write_report(bench, seconds_since(t0));
   std::fprintf(stderr, "quality: wrote %s\n", (bench.out / "report.md").string().c_str());
   return 0;
+}
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "pointfair_quality: %s\n", e.what());
+    return 1;
+  }
 }
