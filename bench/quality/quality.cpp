@@ -350,8 +350,16 @@ int run(int argc, char** argv) {
       return a == "--help" ? 0 : 2;
     }
   }
-  for (const auto& level : split(noise_levels))  // so do bad noise levels
-    if (!(std::stod(level) >= 0.0)) throw std::runtime_error("noise level must be >= 0, got " + level);
+  for (const auto& level : split(noise_levels)) {  // so do bad noise levels
+    std::size_t used = 0;
+    double v = -1.0;
+    try {
+      v = std::stod(level, &used);
+    } catch (const std::exception&) {
+    }
+    if (used != level.size() || !(v >= 0.0))
+      throw std::runtime_error("--noise: each level must be a number >= 0 (percent of the diagonal), got '" + level + "'");
+  }
   for (const auto& shape : split(shapes)) {  // an unknown shape fails now, not after the models
     eval::TruthSpec spec;
     spec.shape = shape;
