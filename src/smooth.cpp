@@ -132,7 +132,10 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
       report.seconds_neighbors += seconds_since(t0);
     }
     t0 = std::chrono::steady_clock::now();
-    if (params.lambda_every_step && step > 0) {
+    // The isotropic flow reads no threshold: only the one before its last step is measured,
+    // the threshold its attributes (feature classes) are computed with.
+    if (params.lambda_every_step && step > 0 &&
+        (params.flow.flow == Flow::Anisotropic || step == params.steps - 1)) {
       report.lambda = measure_lambda();
       lambdas.push_back(report.lambda);
       // The automatic lambda gauges the noise: stop once it has fallen far enough.

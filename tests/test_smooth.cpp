@@ -81,6 +81,27 @@ TEST(Smooth, ExplicitLambdaIsKept) {
   EXPECT_EQ(smooth(points, params).lambda, 7.5);
 }
 
+// The isotropic flow measures no threshold between its steps, only the one before its last
+// step (the threshold of its attributes), as a measurement before every step would.
+TEST(Smooth, IsotropicFlowReportsTheThresholdBeforeItsLastStep) {
+  const std::vector<Vec3> cloud = test::noisy_cube(2000, 0.01, 4);
+  SmoothParams params = small_params(5);
+  params.flow.flow = Flow::Isotropic;
+  std::vector<Vec3> five = cloud;
+  const SmoothReport report = smooth(five, params);
+  params.steps = 4;
+  std::vector<Vec3> four = cloud;
+  const SmoothReport before = smooth(four, params);
+  EXPECT_EQ(report.lambda, auto_lambda(four, before.neighborhoods, params.flow.lambda_auto_factor));
+  EXPECT_NE(report.lambda, before.lambda);
+  // The steps themselves never read it.
+  params.steps = 5;
+  params.flow.lambda = 1e-3;
+  std::vector<Vec3> fixed = cloud;
+  smooth(fixed, params);
+  EXPECT_EQ(fixed, five);
+}
+
 TEST(Smooth, RebuildIntervalRebuildsNeighbourhoods) {
   const std::vector<Vec3> input = test::noisy_cube(3000, 0.01, 4);
   SmoothParams params = small_params(7);

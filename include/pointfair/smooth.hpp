@@ -42,7 +42,9 @@ struct SmoothParams {
   int rebuild_interval = 0;
   /// With an automatic lambda: measure it again on the current positions before every step
   /// (true), or only on the input and after rebuilds (false). The noise dominates |kappa| at
-  /// the start, so a threshold measured once stays too high as the noise goes away.
+  /// the start, so a threshold measured once stays too high as the noise goes away. The
+  /// isotropic flow reads no threshold: it measures only the one before its last step (for the
+  /// feature classes of its attributes).
   bool lambda_every_step = true;
   /// Automatic stop of the anisotropic flow (dimensionless, in [0, 1); 0 = off, always run
   /// `steps`): with an automatic lambda measured before every step, stop before the first step
