@@ -1404,7 +1404,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
       report.seconds_neighbors += seconds_since(t0);
       t0 = Clock::now();
     }
-    if (every_step) {
+    // As in smooth(): the isotropic flow reads no threshold, so only the first step of this
+    // call and the last measure it (the last one's is the attributes'; the step log keeps the
+    // one last measured for the steps between).
+    if (every_step && (params_.flow.flow == Flow::Anisotropic || step == start || step == params_.steps - 1)) {
       lambda = sample_lambda();
       // As in smooth(), the lambda of the first step (of this call) is part of the setup.
       if (step == start) {
@@ -1482,7 +1485,23 @@ bool Run::run_steps(OutOfCoreReport& report) {
         largest_local_ = std::max<std::uint64_t>(largest_local_, rows + from.size());
         account(slots_bytes());
       };
-      stages.compute = [&](std::size_t slot) {
+      // The step's rows of a tile in file order (`next`), from the held buffer (Morton order
+      // within the tile when the lists are). A scattered copy: with one compute thread the
+      // writing thread, otherwise idle, does it; with more the compute threads share it, since
+      // on the writing thread it cost about as much as half the isotropic step (1M points,
+      // 2 threads: 16.3M point-steps/s out of core with it there, 19.1M without).
+      const bool scatter_on_compute = thread_count() > 1;
+      const auto to_file_order = [this, scatter_on_compute](Slot& s) {
+        const std::uint64_t rows = tiles_.rows(s.tile);
+        const Vec3* const out = held_[static_cast<std::size_t>(1 - held_cur_)].data() + held_base_[s.tile];
+        const std::vector<Index>& order = s.nb->order;
+        parallel_for(rows, [&](std::size_t b, std::size_t e) {
+          if (order.empty()) std::copy(out + b, out + e, s.next.begin() + static_cast<std::ptrdiff_t>(b));
+          else
+            for (std::size_t r = b; r < e; ++r) s.next[order[r]] = out[r];
+        }, scatter_on_compute ? 8192 : rows);
+      };
+      stages.compute = [&, to_file_order, scatter_on_compute](std::size_t slot) {
         Slot& s = slots[slot];
         const std::uint64_t rows = tiles_.rows(s.tile), base = held_base_[s.tile];
         const std::span<const Vec3> local(held_[static_cast<std::size_t>(held_cur_)].data() + base,
@@ -1490,15 +1509,12 @@ bool Run::run_steps(OutOfCoreReport& report) {
         const std::span<Vec3> out(held_[static_cast<std::size_t>(1 - held_cur_)].data() + base, rows);
         s.stats = euler_step(local, s.nb->local, std::span<const Index>(identity.data(), rows), params_.flow,
                              lambda, out);
+        if (scatter_on_compute) to_file_order(s);
       };
-      stages.write = [&](std::size_t, std::size_t slot) {
+      stages.write = [&, to_file_order, scatter_on_compute](std::size_t, std::size_t slot) {
         Slot& s = slots[slot];
         const std::uint64_t begin = tiles_.offsets[s.tile], rows = tiles_.rows(s.tile);
-        const Vec3* const out = held_[static_cast<std::size_t>(1 - held_cur_)].data() + held_base_[s.tile];
-        const std::vector<Index>& order = s.nb->order;
-        if (order.empty()) std::copy(out, out + rows, s.next.begin());
-        else
-          for (std::uint64_t r = 0; r < rows; ++r) s.next[order[r]] = out[r];
+        if (!scatter_on_compute) to_file_order(s);
         degenerate += s.stats.degenerate;
         target.write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
         if (every_step) {

@@ -116,9 +116,10 @@ TEST_F(TiledSmoothTest, AutomaticKLikeInCore) {
 
 TEST_F(TiledSmoothTest, IsotropicConstrainedAndGatedFlowsToo) {
   const io::PointTable cloud = test::noisy_cube(4000, 12);
-  for (int variant = 0; variant < 4; ++variant) {
-    SmoothParams params = few_steps(2);
-    if (variant == 0) params.flow.flow = Flow::Isotropic;
+  for (int variant = 0; variant < 5; ++variant) {
+    SmoothParams params = few_steps(variant == 4 ? 5 : 2);
+    // 5 isotropic steps: only the first and the last measure the threshold.
+    if (variant == 0 || variant == 4) params.flow.flow = Flow::Isotropic;
     if (variant == 1) params.flow.constrain_normal = true, params.flow.cutoff = Cutoff::Continuous;
     if (variant == 2) params.flow.feature_gated = true, params.flow.features.mode = FeatureMode::MaxCurvature;
     if (variant == 3) params.flow.normal_estimator = NormalEstimator::Pca;  // the defaults: robust
