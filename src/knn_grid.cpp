@@ -36,7 +36,7 @@ constexpr int kProbes = 16;
 constexpr std::int64_t kMaxRing = 3;
 // The queries they leave (points far off a thick noisy surface, blocks denser than the
 // budget) are searched one at a time in blocks of up to kWideRing cells and kWideBudget points
-// before the k-d tree: a 4M-point noisy cube (noise 3.5 sample spacings) left 527 of them, and
+// before the k-d tree: a 4M-point noisy cube (noise of 7 sample spacings) left 527 of them, and
 // a tree over all its points took most of the build's time.
 constexpr std::int64_t kWideRing = 24;
 constexpr std::size_t kWideBudget = std::size_t{1} << 18;
