@@ -52,6 +52,10 @@ bool should_stop(const SmoothParams& params, std::span<const double> lambdas) {
          lambdas[n] > (1.0 - params.stop_plateau) * lambdas[n - 4];
 }
 
+bool measures_lambda_before(const SmoothParams& params, int step) {
+  return params.flow.flow == Flow::Anisotropic || step == params.steps - 1;
+}
+
 void SmoothParams::validate() const {
   NeighborParams n = neighbors;
   if (n.k == 0) n.k = kAutoKMin;  // automatic
@@ -132,10 +136,7 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
       report.seconds_neighbors += seconds_since(t0);
     }
     t0 = std::chrono::steady_clock::now();
-    // The isotropic flow reads no threshold: only the one before its last step is measured,
-    // the threshold its attributes (feature classes) are computed with.
-    if (params.lambda_every_step && step > 0 &&
-        (params.flow.flow == Flow::Anisotropic || step == params.steps - 1)) {
+    if (params.lambda_every_step && step > 0 && measures_lambda_before(params, step)) {
       report.lambda = measure_lambda();
       lambdas.push_back(report.lambda);
       // The automatic lambda gauges the noise: stop once it has fallen far enough.

@@ -43,8 +43,7 @@ struct SmoothParams {
   /// With an automatic lambda: measure it again on the current positions before every step
   /// (true), or only on the input and after rebuilds (false). The noise dominates |kappa| at
   /// the start, so a threshold measured once stays too high as the noise goes away. The
-  /// isotropic flow reads no threshold: it measures only the one before its last step (for the
-  /// feature classes of its attributes).
+  /// isotropic flow measures only the one before its last step (measures_lambda_before).
   bool lambda_every_step = true;
   /// Automatic stop of the anisotropic flow (dimensionless, in [0, 1); 0 = off, always run
   /// `steps`): with an automatic lambda measured before every step, stop before the first step
@@ -91,6 +90,12 @@ SmoothParams resolve_k(SmoothParams params, std::span<const Vec3> input);
 /// s = 0..n (lambdas[0] on the input). The caller checks that the stop applies at all
 /// (anisotropic flow, automatic lambda measured every step).
 bool should_stop(const SmoothParams& params, std::span<const double> lambdas);
+
+/// With an automatic lambda measured every step (SmoothParams::lambda_every_step): whether it
+/// is measured again before step `step` (> 0). Always for the anisotropic flow; the isotropic
+/// flow reads no threshold and measures only the one before its last step, the threshold of
+/// its attributes' feature classes. The out-of-core smoother follows the same rule.
+bool measures_lambda_before(const SmoothParams& params, int step);
 
 struct SmoothOptions {
   /// Build the (first) neighbourhoods from these positions instead of the input; same point

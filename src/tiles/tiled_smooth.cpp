@@ -1404,10 +1404,9 @@ bool Run::run_steps(OutOfCoreReport& report) {
       report.seconds_neighbors += seconds_since(t0);
       t0 = Clock::now();
     }
-    // As in smooth(): the isotropic flow reads no threshold, so only the first step of this
-    // call and the last measure it (the last one's is the attributes'; the step log keeps the
-    // one last measured for the steps between).
-    if (every_step && (params_.flow.flow == Flow::Anisotropic || step == start || step == params_.steps - 1)) {
+    // smooth()'s rule, and the first step of this call (the step log keeps the lambda last
+    // measured for the steps that measure none).
+    if (every_step && (step == start || measures_lambda_before(params_, step))) {
       lambda = sample_lambda();
       // As in smooth(), the lambda of the first step (of this call) is part of the setup.
       if (step == start) {
