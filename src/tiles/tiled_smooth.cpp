@@ -1490,7 +1490,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       // on the writing thread it cost about as much as half the isotropic step (1M points,
       // 2 threads: 16.3M point-steps/s out of core with it there, 19.1M without).
       const bool scatter_on_compute = thread_count() > 1;
-      const auto to_file_order = [this, scatter_on_compute](Slot& s) {
+      const auto to_file_order = [this](Slot& s) {
         const std::uint64_t rows = tiles_.rows(s.tile);
         const Vec3* const out = held_[static_cast<std::size_t>(1 - held_cur_)].data() + held_base_[s.tile];
         const std::vector<Index>& order = s.nb->order;
@@ -1498,7 +1498,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
           if (order.empty()) std::copy(out + b, out + e, s.next.begin() + static_cast<std::ptrdiff_t>(b));
           else
             for (std::size_t r = b; r < e; ++r) s.next[order[r]] = out[r];
-        }, scatter_on_compute ? 8192 : rows);
+        }, 8192);
       };
       stages.compute = [&, to_file_order, scatter_on_compute](std::size_t slot) {
         Slot& s = slots[slot];
