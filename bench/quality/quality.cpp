@@ -350,7 +350,9 @@ int run(int argc, char** argv) {
       return a == "--help" ? 0 : 2;
     }
   }
-  for (const auto& level : split(noise_levels)) {  // so do bad noise levels
+  // Bad noise levels and unknown shapes fail now, not after the models.
+  std::vector<double> noise;
+  for (const auto& level : split(noise_levels)) {
     std::size_t used = 0;
     double v = -1.0;
     try {
@@ -359,8 +361,10 @@ int run(int argc, char** argv) {
     }
     if (used != level.size() || !(v >= 0.0))
       throw std::runtime_error("--noise: each level must be a number >= 0 (percent of the diagonal), got '" + level + "'");
+    noise.push_back(v);
   }
-  for (const auto& shape : split(shapes)) {  // an unknown shape fails now, not after the models
+  const std::vector<std::string> smooth = split(smooth_models);
+  for (const auto& shape : split(shapes)) {
     eval::TruthSpec spec;
     spec.shape = shape;
     (void)eval::GroundTruth(spec);
@@ -411,20 +415,17 @@ int run(int argc, char** argv) {
         std::fprintf(stderr, "quality: %s not found, skipped\n", mesh.string().c_str());
         continue;
       }
-      const std::vector<std::string> smooth = split(smooth_models);
       const bool is_smooth = std::find(smooth.begin(), smooth.end(), model) != smooth.end();
       eval::TruthSpec spec;
       spec.shape = "mesh";
       spec.mesh = mesh;
-      for (const auto& level : split(noise_levels))
-        model_case(bench, model, spec, model_points, std::stod(level), is_smooth);
+      for (const double level : noise) model_case(bench, model, spec, model_points, level, is_smooth);
     }
   }
   for (const auto& shape : split(shapes)) {
     eval::TruthSpec spec;
     spec.shape = shape;
-    for (const auto& level : split(noise_levels))
-      model_case(bench, shape, spec, shape_points, std::stod(level), true);
+    for (const double level : noise) model_case(bench, shape, spec, shape_points, level, true);
   }
 
   write_report(bench, seconds_since(t0));
