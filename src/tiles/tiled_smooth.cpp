@@ -41,8 +41,10 @@ double seconds_since(Clock::time_point t0) {
 }
 
 // Slots of /run/state, the commit record: one small contiguous dataset rewritten in place.
-// kStepBuffer: where the positions of step kCompletedSteps are (0: the input, b > 0:
-// positions_{b-1}); a step or temporal block writes into the other buffer.
+// kStepBuffer: where the positions of step kCompletedSteps are (0: the input; 1, 2:
+// positions_0, positions_1 in row order; 3, 4: the same buffers with each tile's rows in the
+// order of its lists, kLocalOrder, as the steps write them while positions are held in memory,
+// see Run::to_row_order); a step or temporal block writes into the other buffer.
 // kNeighborsStep: the step whose positions the stored neighbour lists were built from (0: the
 // input or the reference; a rebuild at step s overwrites them in place and records s).
 enum StateSlot {
@@ -281,10 +283,15 @@ class Run {
   int block_depth(int h) const { return compensated() ? 2 * h : h; }
   std::string current_source() const {
     return state_[kStepBuffer] == 0 ? std::string(layout::positions)
-                                    : positions_buffer(static_cast<int>(state_[kStepBuffer] - 1));
+                                    : positions_buffer(static_cast<int>((state_[kStepBuffer] - 1) % 2));
   }
-  // The buffer (kStepBuffer code) the next step or block writes: never the one it reads.
-  std::int64_t target_code() const { return state_[kStepBuffer] == 2 ? 1 : 2; }
+  // Whether the current buffer holds each tile's rows in the order of its lists (kStepBuffer).
+  bool source_in_list_order() const { return state_[kStepBuffer] >= 3; }
+  // The buffer (0 or 1) the next step or block writes: never the one it reads.
+  int target_buffer() const { return state_[kStepBuffer] > 0 && (state_[kStepBuffer] - 1) % 2 == 1 ? 0 : 1; }
+  // Its kStepBuffer code once written, in row order or in list order.
+  std::int64_t target_code(bool list_order) const { return target_buffer() + (list_order ? 3 : 1); }
+  void to_row_order();
   void read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s);
   int block_length(int step) const;
 
@@ -352,6 +359,12 @@ class Run {
   std::array<std::vector<Vec3>, 2> held_;
   std::vector<std::uint64_t> held_base_;
   std::vector<std::vector<std::uint64_t>> held_halo_;
+  // held_slot_[g - my_first_row()]: where row g sits in its tile's lists (and in held_ after
+  // held_base_). held_list_order_: every tile's lists have an order (TileNeighbors::order), and
+  // the steps write the buffers in it (kStepBuffer 3, 4): no scattered copy into row order
+  // a step, only one when something else reads the positions (to_row_order).
+  std::vector<Index> held_slot_;
+  bool held_list_order_ = false;
   std::uint64_t held_bytes_ = 0;
   // Rows of positions and of neighbour lists read by the steps (their I/O volume).
   std::uint64_t rows_read_ = 0;
@@ -1245,6 +1258,8 @@ void Run::release_positions() {
   held_ = {};
   held_base_ = {};
   held_halo_ = {};
+  held_slot_ = {};
+  held_list_order_ = false;
   held_bytes_ = 0;
 }
 
@@ -1270,10 +1285,12 @@ void Run::hold_positions() {
   if (persistent_bytes() + need + slots_ * (slot_estimate_ + slot_estimate_ / 2) > options_.memory_budget) return;
   // Tile u's point at row offset r sits at slot inverse[offsets[u] - first + r] of its lists.
   std::vector<Index> inverse(my_end_row() - my_first_row());
+  bool list_order = local_order_;
   for (std::size_t u = first_tile_; u < end_tile_; ++u) {
     const std::uint64_t rows = tiles_.rows(u), at = tiles_.offsets[u] - my_first_row();
     if (rows == 0) continue;
     const std::vector<Index>& order = cache_[u]->order;
+    if (order.empty()) list_order = false;
     for (std::uint64_t r = 0; r < rows; ++r)
       inverse[at + (order.empty() ? r : order[r])] = static_cast<Index>(r);
   }
@@ -1292,11 +1309,48 @@ void Run::hold_positions() {
   account(need);
   held_base_ = std::move(base);
   for (auto& h : held_) h.resize(total);
-  held_bytes_ = need - (my_end_row() - my_first_row()) * sizeof(Index);
+  held_slot_ = std::move(inverse);
+  held_list_order_ = list_order;
+  held_bytes_ = need;
   holding_ = true;
 }
 
+void Run::to_row_order() {
+  // The positions of the current buffer, written in list order, into the other buffer in row
+  // order, tile by tile, and committed: then the state names that buffer (the same positions;
+  // killed before the commit, the run resumes from the one in list order and does this again).
+  if (!source_in_list_order()) return;
+  const h5::Dataset source = file().dataset(current_source());
+  h5::Dataset target = file().dataset(positions_buffer(target_buffer()));
+  const h5::Dataset order_rows = file().dataset(kLocalOrder);
+  std::vector<Vec3> in_list_order, in_row_order;
+  std::vector<Index> order;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
+    if (rows == 0) continue;
+    in_list_order.resize(rows);
+    in_row_order.resize(rows);
+    order.resize(rows);
+    account(bytes(in_list_order) + bytes(in_row_order) + bytes(order));
+    source.read_rows(begin, rows, in_list_order.data()->data());
+    order_rows.read_rows(begin, rows, order.data());
+    for (std::uint64_t r = 0; r < rows; ++r) {
+      if (order[r] >= rows) file().fail(kLocalOrder, "not a permutation of the tile's rows");
+      in_row_order[order[r]] = in_list_order[r];
+    }
+    target.write_rows(begin, rows, in_row_order.data()->data(), h5::Transfer::Collective);
+  }
+  // Collective writes: as many per rank as the rank with the most tiles.
+  for (std::uint64_t w = my_tiles(), writes = tiles_to_write(); w < writes; ++w)
+    target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
+  state_[kStepBuffer] = target_code(false);
+  commit_state();
+}
+
 bool Run::run_steps(OutOfCoreReport& report) {
+  // A run stopped or killed while its positions were held leaves them in list order: all
+  // that follows reads them in row order.
+  to_row_order();
   const int start = static_cast<int>(state_[kCompletedSteps]);
   report.resumed_from = start;
   const bool every_step = auto_lambda_on() && params_.lambda_every_step;
@@ -1384,9 +1438,12 @@ bool Run::run_steps(OutOfCoreReport& report) {
     commit_pending = false;
     progress("step", static_cast<std::uint64_t>(state_[kCompletedSteps]), static_cast<std::uint64_t>(params_.steps));
   };
+  // Before anything but the next step reads the positions: the commit finished, and the
+  // positions in row order.
   const auto finish_commit_timed = [&] {
     const auto tc = Clock::now();
     finish_commit();
+    to_row_order();
     report.seconds_steps += seconds_since(tc);
   };
   for (int step = start; step < params_.steps;) {
@@ -1425,7 +1482,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       }
     }
     const h5::Dataset source = file().dataset(current_source());
-    h5::Dataset target = file().dataset(positions_buffer(static_cast<int>(target_code() - 1)));
+    h5::Dataset target = file().dataset(positions_buffer(target_buffer()));
     const int h = block_length(step);
     std::vector<std::size_t> block_degenerate(static_cast<std::size_t>(h), 0);
     std::size_t degenerate = 0;
@@ -1456,7 +1513,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
     if (holding_) {
       // Positions held in memory: the source is held_[held_cur_] (read from the file by the
       // first step only), each tile's step goes into held_[1 - held_cur_] in the lists' order,
-      // and into the slot's `next` in row order for the file.
+      // and from there into the file: as it is when every tile's lists have an order
+      // (held_list_order_), else through the slot's `next` in row order.
       stages.read = [&](std::size_t item, std::size_t slot) {
         Slot& s = slots[slot];
         s.tile = work[item];
@@ -1480,7 +1538,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
           // The halo from the tiles holding it (step-n positions: nothing writes `cur` now).
           for (std::size_t j = 0; j < from.size(); ++j) local[rows + j] = cur[from[j]];
         }
-        s.next.resize(rows);
+        if (held_list_order_) s.next = {};  // the step is written from the held buffer
+        else s.next.resize(rows);
         largest_local_ = std::max<std::uint64_t>(largest_local_, rows + from.size());
         account(slots_bytes());
       };
@@ -1508,18 +1567,24 @@ bool Run::run_steps(OutOfCoreReport& report) {
         const std::span<Vec3> out(held_[static_cast<std::size_t>(1 - held_cur_)].data() + base, rows);
         s.stats = euler_step(local, s.nb->local, std::span<const Index>(identity.data(), rows), params_.flow,
                              lambda, out);
-        if (scatter_on_compute) to_file_order(s);
+        if (scatter_on_compute && !held_list_order_) to_file_order(s);
       };
       stages.write = [&, to_file_order, scatter_on_compute](std::size_t, std::size_t slot) {
         Slot& s = slots[slot];
         const std::uint64_t begin = tiles_.offsets[s.tile], rows = tiles_.rows(s.tile);
-        if (!scatter_on_compute) to_file_order(s);
         degenerate += s.stats.degenerate;
-        target.write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
+        const Vec3* const out = held_[static_cast<std::size_t>(1 - held_cur_)].data() + held_base_[s.tile];
+        if (held_list_order_) {
+          target.write_rows(begin, rows, out->data(), h5::Transfer::Collective);
+        } else {
+          if (!scatter_on_compute) to_file_order(s);
+          target.write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
+        }
         if (every_step) {
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
           for (; it != gather_rows_.end() && *it < begin + rows; ++it)
-            gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = s.next[*it - begin];
+            gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] =
+                held_list_order_ ? out[held_slot_[*it - my_first_row()]] : s.next[*it - begin];
         }
         s.nb.reset();
       };
@@ -1591,7 +1656,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     }
     step += h;
     state_[kCompletedSteps] = step;
-    state_[kStepBuffer] = target_code();
+    state_[kStepBuffer] = target_code(!blocks() && holding_ && held_list_order_);
     committed_here += h;
     const bool stopping = options_.stop_after_steps >= 0 && committed_here >= options_.stop_after_steps;
     if (ranks_->size() == 1 && step < params_.steps && !stopping) {

@@ -87,6 +87,14 @@ TEST_F(KillResumeTest, SigkillAtSeveralMomentsThenResumeIsBitIdentical) {
   kill_and_resume({"--steps", "12", "--threads", "2", "--quiet"});
 }
 
+// The plain flow holds the positions in memory and writes the steps in the order of each
+// tile's lists, back into row order at the end: killed in either, the same bits.
+TEST_F(KillResumeTest, StepsWrittenInListOrderKilledAndResumedAreBitIdentical) {
+  write_container(path("in.h5"), test::noisy_cube(20000, 23), test::tiled({.max_tile_points = 2500}));
+  kill_and_resume({"--steps", "20", "--shrink-compensation", "0", "--stop-lambda-ratio", "0", "--stop-plateau", "0",
+                   "--threads", "2", "--quiet"});
+}
+
 // The same with the shrinkage compensation and the plateau stop, which the command line
 // passes to the out-of-core run: its result is smooth()'s, stopped at the same step.
 TEST_F(KillResumeTest, CompensatedRunWithPlateauStopKilledAndResumedIsBitIdentical) {

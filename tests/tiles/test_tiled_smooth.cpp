@@ -258,6 +258,46 @@ TEST_F(TiledSmoothTest, PositionsHeldInMemoryGiveTheSameBits) {
   }
 }
 
+// While positions are held, the steps write each tile's rows in the order of its lists and
+// only the last step (or an automatic stop, or --resume) brings them back into row order.
+// Here the anisotropic flow with its lambda measured every step and the automatic stop: the
+// same bits and the same stop as smooth(), whole and when stopped in list order and resumed.
+TEST_F(TiledSmoothTest, StepsWrittenInListOrderStopAndResumeToTheSameBits) {
+  const io::PointTable cloud = test::noisy_cube(3000, 25, 0.02);
+  SmoothParams params;
+  params.steps = 60;
+  params.shrink_compensation = 0.0;  // the compensated flow loads blocks and holds nothing
+  const InCore ref = run_in_core(cloud, params);
+  ASSERT_TRUE(ref.report.stopped_early) << "not the case this test is for";
+  ASSERT_GT(ref.report.steps, 3);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 400}));
+  const OutOfCoreReport whole = smooth_out_of_core(path("in.h5"), path("run.h5"), params);
+  EXPECT_TRUE(whole.positions_held) << "not the case this test is for";
+  EXPECT_EQ(whole.steps, ref.report.steps);
+  EXPECT_EQ(whole.lambda, ref.report.lambda);
+  expect_identical(path("run.h5"), ref);
+  for (const int stop : {1, ref.report.steps - 1}) {
+    SCOPED_TRACE(testing::Message() << "stopped after " << stop << " steps");
+    OutOfCoreOptions first;
+    first.stop_after_steps = stop;
+    EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, first).finished);
+    {
+      // The commit record's step buffer (slot 5): 3 or 4, a buffer in list order.
+      const auto state =
+          h5::File::open(partial_name(path("resumed.h5")), false).dataset(layout::run_state).read_all<std::int64_t>();
+      ASSERT_EQ(state.size(), 6u);
+      EXPECT_GE(state[5], 3) << "the stopped run's positions are not in list order";
+    }
+    OutOfCoreOptions resume;
+    resume.resume = true;
+    const OutOfCoreReport resumed = smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, resume);
+    EXPECT_TRUE(resumed.finished);
+    EXPECT_EQ(resumed.steps, ref.report.steps);
+    expect_identical(path("resumed.h5"), ref);
+    std::filesystem::remove(path("resumed.h5"));
+  }
+}
+
 // --neighbors-from: the first lists built from a reference cloud (here the same samples
 // without noise), given as a point file or as a container with other tiles; copied into the
 // run in one pass or several; the same bits as smooth() with SmoothOptions::neighbor_reference.
