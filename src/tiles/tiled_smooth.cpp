@@ -1400,6 +1400,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // rows of `local` in row order.
     std::vector<Vec3> local, next;
     StepStats stats;
+    bool gather_halo = false;  // positions held: the compute stage copies the halo in first
     const std::vector<Vec3>& result() const { return nb->order.empty() ? next : local; }
   };
   std::vector<std::size_t> work;
@@ -1409,7 +1410,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
   // After the slots are sized: the lists are cached only next to room for the tiles in flight.
   prepare_lists(report);
   hold_positions();
-  std::vector<Slot> slots(slot_count);
+  // Positions held in list order, a slot holds no positions: then every tile of a step is in
+  // flight at once, so that the worker never waits for this thread (the commit of the last
+  // step, before the first write, mostly waits for the disk).
+  std::vector<Slot> slots(std::max(slot_count, work.size()));
   const auto slots_bytes = [&] {
     std::uint64_t total = bytes(identity);
     for (const Slot& s : slots) {
@@ -1535,8 +1539,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
           if (!nb.halo_rows.empty()) source.read_selected(nb.halo_rows, local[rows].data());
           rows_read_ += rows + nb.halo_rows.size();
         } else {
-          // The halo from the tiles holding it (step-n positions: nothing writes `cur` now).
-          for (std::size_t j = 0; j < from.size(); ++j) local[rows + j] = cur[from[j]];
+          s.gather_halo = true;  // on the compute threads, see stages.compute
         }
         if (held_list_order_) s.next = {};  // the step is written from the held buffer
         else s.next.resize(rows);
@@ -1562,6 +1565,17 @@ bool Run::run_steps(OutOfCoreReport& report) {
       stages.compute = [&, to_file_order, scatter_on_compute](std::size_t slot) {
         Slot& s = slots[slot];
         const std::uint64_t rows = tiles_.rows(s.tile), base = held_base_[s.tile];
+        if (s.gather_halo) {
+          // The halo from the tiles holding it (step-n positions: nothing writes them now; each
+          // tile's halo has its own place in the held buffer).
+          std::vector<Vec3>& cur = held_[static_cast<std::size_t>(held_cur_)];
+          Vec3* const halo = cur.data() + base + rows;
+          const std::vector<std::uint64_t>& from = held_halo_[s.tile];
+          parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
+            for (std::size_t j = b; j < e; ++j) halo[j] = cur[from[j]];
+          }, 8192);
+          s.gather_halo = false;
+        }
         const std::span<const Vec3> local(held_[static_cast<std::size_t>(held_cur_)].data() + base,
                                           rows + held_halo_[s.tile].size());
         const std::span<Vec3> out(held_[static_cast<std::size_t>(1 - held_cur_)].data() + base, rows);
@@ -1622,18 +1636,14 @@ bool Run::run_steps(OutOfCoreReport& report) {
     }
     }
     if (commit_pending) {
-      // The pending commit: after the first tile is read (the worker computes it meanwhile),
-      // and in any case before the first write.
-      stages.read = [&, read = stages.read](std::size_t item, std::size_t slot) {
-        if (item == 1) finish_commit();
-        read(item, slot);
-      };
+      // The pending commit: before the first write (the worker computes the tiles read
+      // meanwhile).
       stages.write = [&, write = stages.write](std::size_t item, std::size_t slot) {
         finish_commit();
         write(item, slot);
       };
     }
-    run_pipeline(work.size(), slot_count, stages);
+    run_pipeline(work.size(), !blocks() && holding_ && held_list_order_ ? slots.size() : slot_count, stages);
     if (holding_) {
       held_cur_ = 1 - held_cur_;
       held_loaded_ = true;
