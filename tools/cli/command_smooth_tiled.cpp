@@ -185,7 +185,8 @@ int run_smooth_out_of_core(const Args& args) {
     j.add("memory_budget_bytes", static_cast<std::size_t>(ooc.memory_budget));
     j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
     j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));
-    j.add("neighbors_cached", report.neighbors_cached).add("tiles_in_flight", report.tiles_in_flight);
+    j.add("neighbors_cached", report.neighbors_cached).add("positions_held", report.positions_held);
+    j.add("tiles_in_flight", report.tiles_in_flight);
     j.add("rebuilds", report.rebuilds).add("temporal_block", ooc.temporal_block);
     // Bytes the steps read: positions (24 per row) and neighbour lists (4 k + 2 per row).
     const std::size_t list_row_bytes = 4 * static_cast<std::size_t>(report.k) + 2;
