@@ -254,6 +254,7 @@ class Run {
                            std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder = true) const;
   bool run_steps(OutOfCoreReport& report);
   void hold_positions();
+  void load_held(const h5::Dataset& source);
   void release_positions();
   std::size_t write_attributes(double lambda);
   void finish(std::size_t attributes_degenerate, double lambda);
@@ -361,8 +362,9 @@ class Run {
   std::vector<std::vector<std::uint64_t>> held_halo_;
   // held_slot_[g - my_first_row()]: where row g sits in its tile's lists (and in held_ after
   // held_base_). held_list_order_: every tile's lists have an order (TileNeighbors::order), and
-  // the steps write the buffers in it (kStepBuffer 3, 4): no scattered copy into row order
-  // a step, only one when something else reads the positions (to_row_order).
+  // the steps but the last (and those before a rebuild) write the buffers in it (kStepBuffer
+  // 3, 4): no scattered copy into row order a step, only one when something else reads the
+  // positions (the last step, or to_row_order after an automatic stop or on --resume).
   std::vector<Index> held_slot_;
   bool held_list_order_ = false;
   std::uint64_t held_bytes_ = 0;
@@ -1319,25 +1321,42 @@ void Run::to_row_order() {
   // The positions of the current buffer, written in list order, into the other buffer in row
   // order, tile by tile, and committed: then the state names that buffer (the same positions;
   // killed before the commit, the run resumes from the one in list order and does this again).
+  // From the positions held in memory while they are there (the run's last step wrote them),
+  // else from the file (a resumed run).
   if (!source_in_list_order()) return;
+  const bool held = holding_ && held_loaded_ && held_list_order_;
   const h5::Dataset source = file().dataset(current_source());
   h5::Dataset target = file().dataset(positions_buffer(target_buffer()));
   const h5::Dataset order_rows = file().dataset(kLocalOrder);
   std::vector<Vec3> in_list_order, in_row_order;
-  std::vector<Index> order;
+  std::vector<Index> order_read;
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
     if (rows == 0) continue;
-    in_list_order.resize(rows);
     in_row_order.resize(rows);
-    order.resize(rows);
-    account(bytes(in_list_order) + bytes(in_row_order) + bytes(order));
-    source.read_rows(begin, rows, in_list_order.data()->data());
-    order_rows.read_rows(begin, rows, order.data());
-    for (std::uint64_t r = 0; r < rows; ++r) {
-      if (order[r] >= rows) file().fail(kLocalOrder, "not a permutation of the tile's rows");
-      in_row_order[order[r]] = in_list_order[r];
+    const Vec3* listed = nullptr;
+    const Index* order = nullptr;
+    if (held) {
+      listed = held_[static_cast<std::size_t>(held_cur_)].data() + held_base_[t];
+      order = cache_[t]->order.data();
+      account(bytes(in_row_order));
+    } else {
+      in_list_order.resize(rows);
+      order_read.resize(rows);
+      account(bytes(in_list_order) + bytes(in_row_order) + bytes(order_read) + rows);  // and `seen`
+      source.read_rows(begin, rows, in_list_order.data()->data());
+      order_rows.read_rows(begin, rows, order_read.data());
+      std::vector<char> seen(rows, 0);
+      for (const Index r : order_read) {
+        if (r >= rows || seen[r]) file().fail(kLocalOrder, "not a permutation of the tile's rows");
+        seen[r] = 1;
+      }
+      listed = in_list_order.data();
+      order = order_read.data();
     }
+    parallel_for(rows, [&](std::size_t b, std::size_t e) {
+      for (std::size_t r = b; r < e; ++r) in_row_order[order[r]] = listed[r];
+    }, 8192);
     target.write_rows(begin, rows, in_row_order.data()->data(), h5::Transfer::Collective);
   }
   // Collective writes: as many per rank as the rank with the most tiles.
@@ -1345,6 +1364,30 @@ void Run::to_row_order() {
     target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
   state_[kStepBuffer] = target_code(false);
   commit_state();
+}
+
+void Run::load_held(const h5::Dataset& source) {
+  // Each tile's rows, read whole and put in the order of its lists; the halos are copied in
+  // by the steps.
+  std::vector<Vec3> by_row;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    const std::uint64_t rows = tiles_.rows(t);
+    if (rows == 0) continue;
+    Vec3* const local = held_[static_cast<std::size_t>(held_cur_)].data() + held_base_[t];
+    const std::vector<Index>& order = cache_[t]->order;
+    if (order.empty()) {
+      source.read_rows(tiles_.offsets[t], rows, local->data());
+    } else {
+      by_row.resize(rows);
+      account(bytes(by_row));
+      source.read_rows(tiles_.offsets[t], rows, by_row.data()->data());
+      parallel_for(rows, [&](std::size_t b, std::size_t e) {
+        for (std::size_t r = b; r < e; ++r) local[r] = by_row[order[r]];
+      }, 8192);
+    }
+    rows_read_ += rows;
+  }
+  held_loaded_ = true;
 }
 
 bool Run::run_steps(OutOfCoreReport& report) {
@@ -1488,6 +1531,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
     const h5::Dataset source = file().dataset(current_source());
     h5::Dataset target = file().dataset(positions_buffer(target_buffer()));
     const int h = block_length(step);
+    // Whether this step writes its positions in list order (held_list_order_): not the last
+    // step, nor one before a rebuild, which write row order as they go instead of after.
+    const bool list_order_step = !blocks() && holding_ && held_list_order_ && step + 1 < params_.steps &&
+                                 !rebuild_due(step + 1);
     std::vector<std::size_t> block_degenerate(static_cast<std::size_t>(h), 0);
     std::size_t degenerate = 0;
     PipelineStages stages;
@@ -1515,33 +1562,19 @@ bool Run::run_steps(OutOfCoreReport& report) {
       };
     } else {
     if (holding_) {
-      // Positions held in memory: the source is held_[held_cur_] (read from the file by the
-      // first step only), each tile's step goes into held_[1 - held_cur_] in the lists' order,
-      // and from there into the file: as it is when every tile's lists have an order
-      // (held_list_order_), else through the slot's `next` in row order.
+      // Positions held in memory: the source is held_[held_cur_] (read from the file before
+      // the first step, load_held), each tile's step goes into held_[1 - held_cur_] in the
+      // lists' order, and from there into the file: as it is on a list_order_step, else
+      // through the slot's `next` in row order.
+      if (!held_loaded_) load_held(source);
       stages.read = [&](std::size_t item, std::size_t slot) {
         Slot& s = slots[slot];
         s.tile = work[item];
         s.nb = neighbors_of(s.tile);
         const std::uint64_t rows = tiles_.rows(s.tile);
-        std::vector<Vec3>& cur = held_[static_cast<std::size_t>(held_cur_)];
-        Vec3* const local = cur.data() + held_base_[s.tile];
         const std::vector<std::uint64_t>& from = held_halo_[s.tile];
-        if (!held_loaded_) {
-          const TileNeighbors& nb = *s.nb;
-          if (nb.order.empty()) {
-            source.read_rows(tiles_.offsets[s.tile], rows, local->data());
-          } else {
-            s.next.resize(rows);
-            source.read_rows(tiles_.offsets[s.tile], rows, s.next.data()->data());
-            for (std::uint64_t r = 0; r < rows; ++r) local[r] = s.next[nb.order[r]];
-          }
-          if (!nb.halo_rows.empty()) source.read_selected(nb.halo_rows, local[rows].data());
-          rows_read_ += rows + nb.halo_rows.size();
-        } else {
-          s.gather_halo = true;  // on the compute threads, see stages.compute
-        }
-        if (held_list_order_) s.next = {};  // the step is written from the held buffer
+        s.gather_halo = true;  // on the compute threads, see stages.compute
+        if (list_order_step) s.next = {};  // the step is written from the held buffer
         else s.next.resize(rows);
         largest_local_ = std::max<std::uint64_t>(largest_local_, rows + from.size());
         account(slots_bytes());
@@ -1581,14 +1614,14 @@ bool Run::run_steps(OutOfCoreReport& report) {
         const std::span<Vec3> out(held_[static_cast<std::size_t>(1 - held_cur_)].data() + base, rows);
         s.stats = euler_step(local, s.nb->local, std::span<const Index>(identity.data(), rows), params_.flow,
                              lambda, out);
-        if (scatter_on_compute && !held_list_order_) to_file_order(s);
+        if (scatter_on_compute && !list_order_step) to_file_order(s);
       };
       stages.write = [&, to_file_order, scatter_on_compute](std::size_t, std::size_t slot) {
         Slot& s = slots[slot];
         const std::uint64_t begin = tiles_.offsets[s.tile], rows = tiles_.rows(s.tile);
         degenerate += s.stats.degenerate;
         const Vec3* const out = held_[static_cast<std::size_t>(1 - held_cur_)].data() + held_base_[s.tile];
-        if (held_list_order_) {
+        if (list_order_step) {
           target.write_rows(begin, rows, out->data(), h5::Transfer::Collective);
         } else {
           if (!scatter_on_compute) to_file_order(s);
@@ -1598,7 +1631,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
           for (; it != gather_rows_.end() && *it < begin + rows; ++it)
             gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] =
-                held_list_order_ ? out[held_slot_[*it - my_first_row()]] : s.next[*it - begin];
+                list_order_step ? out[held_slot_[*it - my_first_row()]] : s.next[*it - begin];
         }
         s.nb.reset();
       };
@@ -1643,7 +1676,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         write(item, slot);
       };
     }
-    run_pipeline(work.size(), !blocks() && holding_ && held_list_order_ ? slots.size() : slot_count, stages);
+    run_pipeline(work.size(), list_order_step ? slots.size() : slot_count, stages);
     if (holding_) {
       held_cur_ = 1 - held_cur_;
       held_loaded_ = true;
@@ -1666,7 +1699,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     }
     step += h;
     state_[kCompletedSteps] = step;
-    state_[kStepBuffer] = target_code(!blocks() && holding_ && held_list_order_);
+    state_[kStepBuffer] = target_code(list_order_step);
     committed_here += h;
     const bool stopping = options_.stop_after_steps >= 0 && committed_here >= options_.stop_after_steps;
     if (ranks_->size() == 1 && step < params_.steps && !stopping) {
