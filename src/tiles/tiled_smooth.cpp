@@ -1103,11 +1103,16 @@ void Run::prepare_lists(OutOfCoreReport& report) {
   // steps read the lists in container rows instead.
   if (blocks()) return;
   const auto t0 = Clock::now();
+  bool wrote = false;
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     if (tiles_.rows(t) == 0 || local_written_[t]) continue;
     const std::shared_ptr<const TileNeighbors> nb = neighbors_of(t);
     account(caching_ && cache_[t] == nb ? 0 : nb->bytes());
+    wrote = true;
   }
+  // The lists just written (k + 1 values a point) reach the disk here, with the rest of
+  // building them, rather than with the first step's commit.
+  if (wrote) file().flush();
   report.seconds_neighbors += seconds_since(t0);
 }
 
