@@ -348,6 +348,8 @@ class Run {
   std::uint64_t largest_local_ = 0;
   // Tiles in flight in the step pipeline, and the bytes one of them may hold.
   std::uint64_t slots_ = 1;
+  // The most tiles a step had in flight (all of them in a list-order step).
+  std::uint64_t most_in_flight_ = 0;
   std::uint64_t slot_estimate_ = 0;
   // Positions kept in memory across steps (hold_positions): while every tile's lists are cached
   // and both fit in the budget, the steps read their source from here instead of the file (the
@@ -1681,7 +1683,9 @@ bool Run::run_steps(OutOfCoreReport& report) {
         write(item, slot);
       };
     }
-    run_pipeline(work.size(), list_order_step ? slots.size() : slot_count, stages);
+    const std::size_t in_flight = list_order_step ? slots.size() : slot_count;
+    most_in_flight_ = std::max<std::uint64_t>(most_in_flight_, std::min(in_flight, work.size()));
+    run_pipeline(work.size(), in_flight, stages);
     if (holding_) {
       held_cur_ = 1 - held_cur_;
       held_loaded_ = true;
@@ -1874,7 +1878,7 @@ OutOfCoreReport Run::run() {
   release_positions();  // the attributes need the room
   if (!steps_done) {
     report.neighbors_cached = caching_;
-    report.tiles_in_flight = static_cast<int>(slots_);
+    report.tiles_in_flight = static_cast<int>(std::max(slots_, most_in_flight_));
     report.peak_accounted_bytes = peak_;
     report.largest_tile_with_halo = largest_local_;
     file_.reset();
@@ -1902,7 +1906,7 @@ OutOfCoreReport Run::run() {
   ranks_->barrier();  // the run is in place when any rank returns
   report.finished = true;
   report.neighbors_cached = caching_;
-  report.tiles_in_flight = static_cast<int>(slots_);
+  report.tiles_in_flight = static_cast<int>(std::max(slots_, most_in_flight_));
   report.peak_accounted_bytes = peak_;
   report.largest_tile_with_halo = largest_local_;
   return report;

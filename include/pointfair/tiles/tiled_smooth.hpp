@@ -44,7 +44,9 @@ struct OutOfCoreOptions {
   bool attributes = true;
   /// Tiles in flight in each step's pipeline (pipeline.hpp): one read, one computed, one
   /// written. Fewer when they do not fit in the budget next to what the run keeps; 1: read,
-  /// compute and write one tile after the other. Results do not depend on it.
+  /// compute and write one tile after the other. Results do not depend on it. While the
+  /// positions are held in memory in the lists' order (OutOfCoreReport::positions_held), a
+  /// slot holds no positions and every tile of a step is in flight.
   int tiles_in_flight = 3;
   /// Temporal blocking: steps done per load of a tile, which comes with the h-ring closure of
   /// its neighbour lists (every point its step-n+h position depends on; the 2h-ring closure
@@ -91,7 +93,8 @@ struct OutOfCoreReport {
   /// The largest working set the run accounted for (bytes), and the largest tile + halo.
   std::uint64_t peak_accounted_bytes = 0;
   std::uint64_t largest_tile_with_halo = 0;
-  /// Tiles in flight in the step pipeline (OutOfCoreOptions::tiles_in_flight, or fewer).
+  /// The most tiles in flight in a step's pipeline (OutOfCoreOptions::tiles_in_flight, or
+  /// fewer; every tile of a step while positions are held in the lists' order).
   int tiles_in_flight = 1;
   /// Halo rows a step reads, summed over the tiles (the I/O of a step beyond the tiles
   /// themselves); 0 when the run file does not record them.
