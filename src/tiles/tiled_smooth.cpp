@@ -355,9 +355,9 @@ class Run {
   // and both fit in the budget, the steps read their source from here instead of the file (the
   // run file still gets every step, committed as before). held_[b]: per tile, its points in
   // the lists' order then its halo, from element held_base_[t]; held_[held_cur_] holds the
-  // step's source once held_loaded_ (the first step after holding starts reads the file).
+  // step's source (read from the file when holding starts, load_held).
   // held_halo_[t][j]: the element of held_ holding halo point j of tile t in its own tile.
-  bool holding_ = false, held_loaded_ = false;
+  bool holding_ = false;
   int held_cur_ = 0;
   std::array<std::vector<Vec3>, 2> held_;
   std::vector<std::uint64_t> held_base_;
@@ -1262,7 +1262,7 @@ std::size_t Run::pipeline_slots(std::uint64_t fixed) {
 }
 
 void Run::release_positions() {
-  holding_ = held_loaded_ = false;
+  holding_ = false;
   held_cur_ = 0;
   held_ = {};
   held_base_ = {};
@@ -1322,6 +1322,8 @@ void Run::hold_positions() {
   held_list_order_ = list_order;
   held_bytes_ = need;
   holding_ = true;
+  // Like the in-core run's move of its cloud into Morton order, part of the setup.
+  load_held(file().dataset(current_source()));
 }
 
 void Run::to_row_order() {
@@ -1331,7 +1333,7 @@ void Run::to_row_order() {
   // From the positions held in memory while they are there (the run's last step wrote them),
   // else from the file (a resumed run).
   if (!source_in_list_order()) return;
-  const bool held = holding_ && held_loaded_ && held_list_order_;
+  const bool held = holding_ && held_list_order_;
   const h5::Dataset source = file().dataset(current_source());
   h5::Dataset target = file().dataset(positions_buffer(target_buffer()));
   const h5::Dataset order_rows = file().dataset(kLocalOrder);
@@ -1394,7 +1396,6 @@ void Run::load_held(const h5::Dataset& source) {
     }
     rows_read_ += rows;
   }
-  held_loaded_ = true;
 }
 
 bool Run::run_steps(OutOfCoreReport& report) {
@@ -1459,7 +1460,11 @@ bool Run::run_steps(OutOfCoreReport& report) {
   const std::size_t slot_count = pipeline_slots(bytes(identity));
   // After the slots are sized: the lists are cached only next to room for the tiles in flight.
   prepare_lists(report);
-  hold_positions();
+  {
+    const auto th = Clock::now();
+    hold_positions();
+    report.seconds_neighbors += seconds_since(th);
+  }
   // Positions held in list order, a slot holds no positions: then every tile of a step is in
   // flight at once, so that the worker never waits for this thread (the commit of the last
   // step, before the first write, mostly waits for the disk).
@@ -1573,7 +1578,6 @@ bool Run::run_steps(OutOfCoreReport& report) {
       // the first step, load_held), each tile's step goes into held_[1 - held_cur_] in the
       // lists' order, and from there into the file: as it is on a list_order_step, else
       // through the slot's `next` in row order.
-      if (!held_loaded_) load_held(source);
       stages.read = [&](std::size_t item, std::size_t slot) {
         Slot& s = slots[slot];
         s.tile = work[item];
@@ -1686,10 +1690,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     const std::size_t in_flight = list_order_step ? slots.size() : slot_count;
     most_in_flight_ = std::max<std::uint64_t>(most_in_flight_, std::min(in_flight, work.size()));
     run_pipeline(work.size(), in_flight, stages);
-    if (holding_) {
-      held_cur_ = 1 - held_cur_;
-      held_loaded_ = true;
-    }
+    if (holding_) held_cur_ = 1 - held_cur_;
     // Collective writes: as many per rank as the rank with the most tiles.
     for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
     if (!blocks()) block_degenerate[0] = degenerate;
