@@ -51,6 +51,15 @@ class TiledSmoothTest : public test::TempDirTest {
     expect_identical(path("run.h5"), ref);
     std::filesystem::remove(path("run.h5"));
   }
+  // The run stopped in resumed.h5, resumed: finished at `ref`'s step count, with its bits.
+  void expect_resumes_to(const SmoothParams& params, const InCore& ref) {
+    OutOfCoreOptions resume;
+    resume.resume = true;
+    const OutOfCoreReport resumed = smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, resume);
+    EXPECT_TRUE(resumed.finished);
+    EXPECT_EQ(resumed.steps, ref.report.steps);
+    expect_identical(path("resumed.h5"), ref);
+  }
 };
 
 struct Case {
@@ -289,12 +298,7 @@ TEST_F(TiledSmoothTest, StepsWrittenInListOrderStopAndResumeToTheSameBits) {
       ASSERT_EQ(state.size(), 6u);
       EXPECT_GE(state[5], 3) << "the stopped run's positions are not in list order";
     }
-    OutOfCoreOptions resume;
-    resume.resume = true;
-    const OutOfCoreReport resumed = smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, resume);
-    EXPECT_TRUE(resumed.finished);
-    EXPECT_EQ(resumed.steps, ref.report.steps);
-    expect_identical(path("resumed.h5"), ref);
+    expect_resumes_to(params, ref);
     std::filesystem::remove(path("resumed.h5"));
   }
 }
@@ -453,12 +457,7 @@ TEST_F(TiledSmoothTest, AutomaticStopMatchesInCore) {
   OutOfCoreOptions stop;
   stop.stop_after_steps = ref.report.steps - 2;
   EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, stop).finished);
-  OutOfCoreOptions resume;
-  resume.resume = true;
-  const OutOfCoreReport resumed = smooth_out_of_core(path("in.h5"), path("resumed.h5"), params, resume);
-  EXPECT_TRUE(resumed.finished);
-  EXPECT_EQ(resumed.steps, ref.report.steps);
-  expect_identical(path("resumed.h5"), ref);
+  expect_resumes_to(params, ref);
 }
 
 // --shrink-compensation: each tile is loaded with the 2-ring closure of its lists (the plain
