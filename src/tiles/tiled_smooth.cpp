@@ -1451,7 +1451,6 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // rows of `local` in row order.
     std::vector<Vec3> local, next;
     StepStats stats;
-    bool gather_halo = false;  // positions held: the compute stage copies the halo in first
     const std::vector<Vec3>& result() const { return nb->order.empty() ? next : local; }
   };
   std::vector<std::size_t> work;
@@ -1584,7 +1583,6 @@ bool Run::run_steps(OutOfCoreReport& report) {
         s.nb = neighbors_of(s.tile);
         const std::uint64_t rows = tiles_.rows(s.tile);
         const std::vector<std::uint64_t>& from = held_halo_[s.tile];
-        s.gather_halo = true;  // on the compute threads, see stages.compute
         if (list_order_step) s.next = {};  // the step is written from the held buffer
         else s.next.resize(rows);
         largest_local_ = std::max<std::uint64_t>(largest_local_, rows + from.size());
@@ -1609,19 +1607,15 @@ bool Run::run_steps(OutOfCoreReport& report) {
       stages.compute = [&, to_file_order, scatter_on_compute](std::size_t slot) {
         Slot& s = slots[slot];
         const std::uint64_t rows = tiles_.rows(s.tile), base = held_base_[s.tile];
-        if (s.gather_halo) {
-          // The halo from the tiles holding it (step-n positions: nothing writes them now; each
-          // tile's halo has its own place in the held buffer).
-          std::vector<Vec3>& cur = held_[static_cast<std::size_t>(held_cur_)];
-          Vec3* const halo = cur.data() + base + rows;
-          const std::vector<std::uint64_t>& from = held_halo_[s.tile];
-          parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
-            for (std::size_t j = b; j < e; ++j) halo[j] = cur[from[j]];
-          }, 8192);
-          s.gather_halo = false;
-        }
-        const std::span<const Vec3> local(held_[static_cast<std::size_t>(held_cur_)].data() + base,
-                                          rows + held_halo_[s.tile].size());
+        // The halo from the tiles holding it, here on the compute threads (step-n positions:
+        // nothing writes them now; each tile's halo has its own place in the held buffer).
+        std::vector<Vec3>& cur = held_[static_cast<std::size_t>(held_cur_)];
+        const std::vector<std::uint64_t>& from = held_halo_[s.tile];
+        Vec3* const halo = cur.data() + base + rows;
+        parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
+          for (std::size_t j = b; j < e; ++j) halo[j] = cur[from[j]];
+        }, 8192);
+        const std::span<const Vec3> local(cur.data() + base, rows + from.size());
         const std::span<Vec3> out(held_[static_cast<std::size_t>(1 - held_cur_)].data() + base, rows);
         s.stats = euler_step(local, s.nb->local, std::span<const Index>(identity.data(), rows), params_.flow,
                              lambda, out);
