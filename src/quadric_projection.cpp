@@ -1,0 +1,187 @@
+#include "pointfair/quadric_projection.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <Eigen/Cholesky>
+
+#include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
+
+namespace pointfair {
+namespace {
+
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+
+// The monomials of the height field h(u, v) = c0 + c1 u + c2 v + c3 u^2 + c4 u v + c5 v^2.
+Vec6 monomials(double u, double v) {
+  Vec6 m;
+  m << 1.0, u, v, u * u, u * v, v * v;
+  return m;
+}
+
+struct Scratch {
+  std::vector<Vec3> offsets;
+  std::vector<double> u, v, h, weights, plane_scratch, residuals;
+};
+
+}  // namespace
+
+void QuadricProjectionParams::validate() const {
+  require(k >= 5, "quadric k must be >= 5, got " + std::to_string(k));
+  require(normal_neighbors >= 2, "quadric normal neighbours must be >= 2, got " + std::to_string(normal_neighbors));
+  require(normal_angle > 0.0 && normal_angle <= 90.0,
+          "quadric normal angle must be in (0, 90] degrees, got " + std::to_string(normal_angle));
+  require(iterations >= 0, "quadric iterations must be >= 0, got " + std::to_string(iterations));
+  require(inlier_bound > 0.0, "quadric inlier bound must be > 0, got " + std::to_string(inlier_bound));
+  frame.validate();
+}
+
+namespace {
+
+Vec3 project_one(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points,
+                 const QuadricProjectionParams& params, Scratch& s) {
+  const std::size_t m = neighbors.size() + 1;  // p itself and its neighbours
+  if (m < 6) return p;
+  s.offsets.resize(neighbors.size());
+  for (std::size_t j = 0; j < neighbors.size(); ++j) s.offsets[j] = points[neighbors[j]] - p;
+  s.weights.assign(m, 0.0);
+  s.plane_scratch.resize(m);
+  const RobustPlane plane = fit_robust_plane(s.offsets, params.frame, s.weights, s.plane_scratch);
+  if (!plane.valid) return p;
+  const Vec3 n = plane.normal;
+  const Vec3 t1 = n.unitOrthogonal();
+  const Vec3 t2 = n.cross(t1);
+  s.u.resize(m);
+  s.v.resize(m);
+  s.h.resize(m);
+  s.u[0] = s.v[0] = s.h[0] = 0.0;
+  double reach = 0.0;
+  for (std::size_t j = 1; j < m; ++j) {
+    const Vec3& d = s.offsets[j - 1];
+    s.u[j] = d.dot(t1);
+    s.v[j] = d.dot(t2);
+    s.h[j] = d.dot(n);
+    reach = std::max(reach, s.u[j] * s.u[j] + s.v[j] * s.v[j]);
+  }
+  reach = std::sqrt(reach);
+  if (!(reach > 0.0)) return p;
+  // Tangent coordinates in units of the neighbourhood's reach keep the normal equations
+  // well conditioned; the constant term, the height above p, is unchanged by that.
+  const double inv_reach = 1.0 / reach;
+  for (std::size_t j = 0; j < m; ++j) {
+    s.u[j] *= inv_reach;
+    s.v[j] *= inv_reach;
+  }
+  s.residuals.resize(m);
+  Vec6 c = Vec6::Zero();
+  bool fitted = false;
+  for (int pass = 0; pass <= params.iterations; ++pass) {
+    Mat6 normal_matrix = Mat6::Zero();
+    Vec6 rhs = Vec6::Zero();
+    std::size_t kept = 0;
+    for (std::size_t j = 0; j < m; ++j) {
+      const double w = s.weights[j];
+      if (w <= 0.0) continue;
+      ++kept;
+      const Vec6 a = monomials(s.u[j], s.v[j]);
+      normal_matrix.selfadjointView<Eigen::Lower>().rankUpdate(a, w);
+      rhs += w * s.h[j] * a;
+    }
+    if (kept < 6) break;
+    normal_matrix = normal_matrix.selfadjointView<Eigen::Lower>();
+    const Eigen::LDLT<Mat6> ldlt(normal_matrix);
+    const Vec6 d = ldlt.vectorD().cwiseAbs();
+    if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-9 * d.maxCoeff())) break;
+    c = ldlt.solve(rhs);
+    fitted = true;
+    if (pass == params.iterations) break;
+    for (std::size_t j = 0; j < m; ++j) s.residuals[j] = std::abs(s.h[j] - monomials(s.u[j], s.v[j]).dot(c));
+    std::vector<double>& sorted = s.plane_scratch;
+    sorted.assign(s.residuals.begin(), s.residuals.end());
+    std::nth_element(sorted.begin(), sorted.begin() + m / 2, sorted.end());
+    const double scale = 1.4826 * sorted[m / 2];
+    const double bound = params.inlier_bound * std::max(scale, 1e-12 * reach);
+    for (std::size_t j = 0; j < m; ++j) {
+      const double t = s.residuals[j] / bound;
+      s.weights[j] = t < 1.0 ? (1.0 - t * t) * (1.0 - t * t) : 0.0;
+    }
+  }
+  if (!fitted || !std::isfinite(c[0])) return p;
+  return p + c[0] * n;
+}
+
+}  // namespace
+
+Vec3 project_to_quadric(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points,
+                        const QuadricProjectionParams& params) {
+  Scratch s;
+  return project_one(p, neighbors, points, params, s);
+}
+
+std::vector<Vec3> neighbourhood_normals(std::span<const Vec3> points, const Neighborhoods& neighborhoods,
+                                        const QuadricProjectionParams& params) {
+  params.validate();
+  const std::size_t n = neighborhoods.size();
+  require(points.size() == n, "neighbourhood_normals: one neighbourhood row per point");
+  std::vector<Vec3> normals(n, Vec3::Zero());
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    std::vector<Vec3> offsets;
+    std::vector<double> weights, scratch;
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::span<const Index> nb = neighborhoods.of(i);
+      const std::size_t m = std::min<std::size_t>(nb.size(), static_cast<std::size_t>(params.normal_neighbors));
+      offsets.resize(m);
+      for (std::size_t j = 0; j < m; ++j) offsets[j] = points[nb[j]] - points[i];
+      weights.assign(m + 1, 0.0);
+      scratch.resize(m + 1);
+      const RobustPlane plane = fit_robust_plane(offsets, params.frame, weights, scratch);
+      if (plane.valid) normals[i] = plane.normal;
+    }
+  }, 1024);
+  return normals;
+}
+
+void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals,
+                         const Neighborhoods& neighborhoods, const QuadricProjectionParams& params,
+                         std::span<Vec3> out) {
+  params.validate();
+  const std::size_t n = neighborhoods.size();
+  require(points.size() == n && normals.size() == n && out.size() == n,
+          "project_to_quadrics: one neighbourhood row, normal and output per point");
+  const double min_cos = std::cos(params.normal_angle * std::numbers::pi / 180.0);
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    Scratch s;
+    std::vector<Index> kept;
+    for (std::size_t i = begin; i < end; ++i) {
+      const Vec3& ni = normals[i];
+      if (ni.isZero()) {  // no plane, no direction to move along
+        out[i] = points[i];
+        continue;
+      }
+      kept.clear();
+      for (const Index j : neighborhoods.of(i))
+        if (std::abs(ni.dot(normals[j])) >= min_cos) kept.push_back(j);
+      out[i] = project_one(points[i], kept, points, params, s);
+    }
+  }, 256);
+}
+
+void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params) {
+  params.validate();
+  NeighborParams wide;
+  wide.k = params.k;
+  wide.eps = std::numeric_limits<double>::infinity();
+  const Neighborhoods neighborhoods = build_neighborhoods(points, wide);
+  const std::vector<Vec3> normals = neighbourhood_normals(points, neighborhoods, params);
+  std::vector<Vec3> out(points.size());
+  project_to_quadrics(points, normals, neighborhoods, params, out);
+  points.swap(out);
+}
+
+}  // namespace pointfair
