@@ -185,6 +185,28 @@ TEST_F(CliTest, OutOfCoreSmoothTakesCompensationAndPlateauStop) {
   EXPECT_NE(io::read_points(dir_ / "c.ply").positions, b.positions);
 }
 
+// --quadric-finish: the pass after the flow, reported in the JSON; it moves the points; bad
+// values and out-of-core runs are refused with a message naming the problem.
+TEST_F(CliTest, SmoothTakesTheQuadricFinishInCoreOnly) {
+  const fs::path in = write_cloud("in.ply", 3000);
+  const std::string plain = smooth_json(in, "--steps 3");
+  EXPECT_NE(plain.find("\"quadric_finish\": {\"enabled\": false"), std::string::npos) << plain;
+  const io::PointTable flow_only = io::read_points(dir_ / "out.ply");
+  const std::string finished = smooth_json(in, "--steps 3 --quadric-finish --quadric-k 40 --quadric-angle 25");
+  EXPECT_NE(finished.find("\"quadric_finish\": {\"enabled\": true, \"k\": 40, \"angle_degrees\": 25"),
+            std::string::npos)
+      << finished;
+  EXPECT_NE(io::read_points(dir_ / "out.ply").positions, flow_only.positions);
+  const RunResult bad = run("smooth " + in.string() + " " + (dir_ / "b.ply").string() + " --quadric-finish --quadric-k 3");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("quadric k"), std::string::npos) << bad.err;
+  const RunResult ooc = run("smooth " + in.string() + " " + (dir_ / "c.ply").string() +
+                            " --memory-budget 1M --quadric-finish --quiet");
+  EXPECT_NE(ooc.exit_code, 0);
+  EXPECT_NE(ooc.err.find("--quadric-finish runs in core only"), std::string::npos) << ooc.err;
+  EXPECT_FALSE(fs::exists(dir_ / "c.ply"));
+}
+
 // LAS in, LAS out: same point format and integer grid, per-point fields untouched.
 TEST_F(CliTest, SmoothLasKeepsFormatAndFields) {
   io::PointTable t;

@@ -34,6 +34,8 @@ int run_smooth(const Args& args) {
   parser.positional("OUT", "Output point file; written under a temporary name and renamed when complete.",
                     &output_path);
   add_method_options(parser, params);
+  FinishOptions finish;
+  add_finish_options(parser, finish);
   parser.value("neighbors-from", "REF",
                "Build the neighbourhoods from this cloud (same points, same order) instead of the "
                "input: the paper's noise-free neighbourhoods.",
@@ -41,6 +43,7 @@ int run_smooth(const Args& args) {
   add_output_options(parser, output, true);
   if (!parser.parse(args)) return 0;
   params.validate();
+  if (finish.quadric) finish.quadric_params.validate();
   set_thread_count(output.threads);
 
   const auto t_start = std::chrono::steady_clock::now();
@@ -65,8 +68,14 @@ int run_smooth(const Args& args) {
   throw_if_interrupted();
   SmoothReport report = smooth(table.positions, params, options);
   progress.finish();
-
   auto t0 = std::chrono::steady_clock::now();
+  if (finish.quadric) {
+    throw_if_interrupted();
+    finish_with_quadrics(table.positions, finish.quadric_params);
+  }
+  const double seconds_finish = seconds_since(t0);
+
+  t0 = std::chrono::steady_clock::now();
   const bool need_attributes = output.attributes || output.colour_by != ColourBy::None;
   std::size_t degenerate_final = report.degenerate;
   if (need_attributes) {
@@ -99,7 +108,7 @@ int run_smooth(const Args& args) {
   if (output.json) {
     JsonObject seconds;
     seconds.add("read", seconds_read).add("neighbors", report.seconds_neighbors)
-        .add("steps", report.seconds_steps).add("attributes", seconds_attributes)
+        .add("steps", report.seconds_steps).add("finish", seconds_finish).add("attributes", seconds_attributes)
         .add("write", seconds_write).add("total", seconds_total);
     JsonObject j;
     j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
@@ -107,6 +116,10 @@ int run_smooth(const Args& args) {
     j.add("threads", thread_count());
     j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
     j.add("neighbors_from", reference);
+    JsonObject q;
+    q.add("enabled", finish.quadric).add("k", finish.quadric_params.k)
+        .add("angle_degrees", finish.quadric_params.normal_angle);
+    j.add("quadric_finish", q);
     j.add("seconds", seconds).add("point_steps_per_second", rate);
     j.add("displacement", to_json(moved)).add("degenerate_points", degenerate_final);
     std::cout << j.str() << std::endl;

@@ -36,6 +36,14 @@ bool wants_out_of_core(const Args& args) {
 
 namespace {
 
+// The quadric finish needs every point's wide neighbourhood at once: in core only.
+void require_in_core_finish(const FinishOptions& finish, const std::string& input) {
+  if (finish.quadric)
+    throw ParamError("--quadric-finish runs in core only, and " + input +
+                     " runs out of core here (an HDF5 container, --resume, or a cloud beyond "
+                     "--memory-budget): leave it out, or give a point file within the budget");
+}
+
 Args without_budget(const Args& args) {
   Args out;
   for (std::size_t i = 0; i < args.size(); ++i) {
@@ -70,6 +78,8 @@ int run_smooth_out_of_core(const Args& args) {
   parser.positional("IN", "Input container (.h5) or point file (.ply, .xyz, ...).", &input);
   parser.positional("OUT", "Output container (.h5) or point file.", &output_path);
   add_method_options(parser, params);
+  FinishOptions finish;
+  add_finish_options(parser, finish);
   parser.value("memory-budget", "SIZE",
                "Working memory of the run (e.g. 256M, 2G). A point-file input that fits runs in "
                "core. Default 256M.",
@@ -95,6 +105,7 @@ int run_smooth_out_of_core(const Args& args) {
   const auto t_start = std::chrono::steady_clock::now();
 
   const bool container_in = is_container_path(input), container_out = is_container_path(output_path);
+  if (container_in) require_in_core_finish(finish, input);
   fs::path run_input = input;
   fs::path imported;
   if (!container_in) {
@@ -106,6 +117,7 @@ int run_smooth_out_of_core(const Args& args) {
     if (!container_out && in_core_bytes(points, k_bound, compensated) <= ooc.memory_budget && !ooc.resume) {
       return run_smooth(without_budget(args));
     }
+    require_in_core_finish(finish, input);
     io::require_distinct(input, output_path);
     imported = fs::path(output_path).string() + ".input.h5";
     tiles::StreamImportOptions import;

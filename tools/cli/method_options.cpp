@@ -188,6 +188,21 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           [&s](std::string_view v) { s.flow.weingarten.density_floor = parse_double(v, "--density-floor"); });
 }
 
+void add_finish_options(ArgumentParser& p, FinishOptions& f) {
+  p.flag("quadric-finish",
+         "After the flow, move every point onto a quadric fitted to its --quadric-k nearest "
+         "neighbours whose normals lie within --quadric-angle of its own (Tukey-reweighted): "
+         "removes the noise the flow leaves on smooth surfaces, keeps creases. Beyond the paper; "
+         "in core only. Default off.",
+         [&f] { f.quadric = true; });
+  p.value("quadric-k", "N", "Neighbours of each quadric fit (5..1024). Default 200.",
+          [&f](std::string_view v) { f.quadric_params.k = parse_int(v, "--quadric-k"); });
+  p.value("quadric-angle", "DEGREES",
+          "Largest angle between a point's normal and a neighbour's that keeps the neighbour in "
+          "the point's quadric fit, in (0, 90]. Default 30.",
+          [&f](std::string_view v) { f.quadric_params.normal_angle = parse_double(v, "--quadric-angle"); });
+}
+
 void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attributes_flag) {
   p.value("colour-by", "kmax|laplacian|none",
           "Colour points (red/green/blue) by the maximal principal curvature max(|k1|, |k2|) or "

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "arguments.hpp"
+#include "pointfair/quadric_projection.hpp"
 #include "pointfair/smooth.hpp"
 
 namespace pointfair::cli {
@@ -22,8 +23,16 @@ struct OutputOptions {
   int threads = 0;
 };
 
+/// The optional pass after the flow (quadric_projection.hpp).
+struct FinishOptions {
+  bool quadric = false;
+  QuadricProjectionParams quadric_params;
+};
+
 /// Registers --k, --eps, ..., --feature-gated (everything in SmoothParams).
 void add_method_options(ArgumentParser& parser, SmoothParams& params);
+/// Registers --quadric-finish, --quadric-k, --quadric-angle.
+void add_finish_options(ArgumentParser& parser, FinishOptions& finish);
 /// Registers --colour-by, --attributes, --encoding, --json, --quiet, --threads.
 void add_output_options(ArgumentParser& parser, OutputOptions& output, bool with_attributes_flag);
 
