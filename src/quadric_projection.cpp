@@ -11,6 +11,7 @@
 
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
+#include "robust_plane_fit.hpp"
 
 namespace pointfair {
 namespace {
@@ -102,15 +103,7 @@ Vec3 project_one(const Vec3& p, std::span<const Index> neighbors, std::span<cons
     fitted = true;
     if (pass == params.iterations) break;
     for (std::size_t j = 0; j < m; ++j) s.residuals[j] = std::abs(s.h[j] - monomials(s.u[j], s.v[j]).dot(c));
-    std::vector<double>& sorted = s.plane_scratch;
-    sorted.assign(s.residuals.begin(), s.residuals.end());
-    std::nth_element(sorted.begin(), sorted.begin() + m / 2, sorted.end());
-    const double scale = 1.4826 * sorted[m / 2];
-    const double bound = params.inlier_bound * std::max(scale, 1e-12 * reach);
-    for (std::size_t j = 0; j < m; ++j) {
-      const double t = s.residuals[j] / bound;
-      s.weights[j] = t < 1.0 ? (1.0 - t * t) * (1.0 - t * t) : 0.0;
-    }
+    detail::biweights(s.residuals, params.inlier_bound, 1e-12 * reach, s.weights, s.plane_scratch);
   }
   if (!fitted || !std::isfinite(c[0])) return p;
   return p + c[0] * n;

@@ -47,6 +47,23 @@ namespace pointfair::detail {
   return true;
 }
 
+/// Tukey's biweight of each residual (absolute values) into `weights`: 0 beyond `inlier_bound`
+/// times the robust scale, 1.4826 times the median residual (the element at size / 2 in
+/// order), or `floor` when that is larger. `scratch` (the same size) is work space for the
+/// median; `weights` may be `residuals` itself.
+[[gnu::always_inline]] inline void biweights(std::span<const double> residuals, double inlier_bound, double floor,
+                                             std::span<double> weights, std::span<double> scratch) {
+  const std::size_t count = residuals.size();
+  for (std::size_t j = 0; j < count; ++j) scratch[j] = residuals[j];
+  const auto mid = scratch.begin() + static_cast<std::ptrdiff_t>(count / 2);
+  std::nth_element(scratch.begin(), mid, scratch.begin() + static_cast<std::ptrdiff_t>(count));
+  const double bound = inlier_bound * std::max(1.4826 * *mid, floor);
+  for (std::size_t j = 0; j < count; ++j) {
+    const double u = residuals[j] / bound;
+    weights[j] = u < 1.0 ? (1.0 - u * u) * (1.0 - u * u) : 0.0;
+  }
+}
+
 /// Tukey weights of p (slot 0) and its neighbours from their distances to `plane`; `scratch`
 /// is work space for the median.
 [[gnu::always_inline]] inline void tukey_weights(std::span<const Vec3> offsets, const RobustPlane& plane,
@@ -55,20 +72,13 @@ namespace pointfair::detail {
   const std::size_t m = offsets.size();
   const Vec3& n = plane.normal;
   const double origin = n.dot(plane.mean);
-  scratch[0] = std::abs(origin);
-  for (std::size_t j = 0; j < m; ++j) scratch[j + 1] = std::abs(n.dot(offsets[j]) - origin);
-  // The distances are kept in `weights` while the median is taken in place in `scratch`.
-  for (std::size_t j = 0; j <= m; ++j) weights[j] = scratch[j];
-  const auto mid = scratch.begin() + static_cast<std::ptrdiff_t>((m + 1) / 2);
-  std::nth_element(scratch.begin(), mid, scratch.end());
+  weights[0] = std::abs(origin);
+  for (std::size_t j = 0; j < m; ++j) weights[j + 1] = std::abs(n.dot(offsets[j]) - origin);
   // The scale never falls below a tiny fraction of the neighbourhood's extent, so that an
   // exact plane (all distances 0) keeps every point.
   const double extent = std::sqrt(std::max(0.0, plane.covariance.trace()));
-  const double bound = params.inlier_bound * std::max(1.4826 * *mid, 1e-9 * extent);
-  for (std::size_t j = 0; j <= m; ++j) {
-    const double u = weights[j] / bound;
-    weights[j] = u < 1.0 ? (1.0 - u * u) * (1.0 - u * u) : 0.0;
-  }
+  const std::span<double> distances = weights.first(m + 1);
+  biweights(distances, params.inlier_bound, 1e-9 * extent, distances, scratch);
 }
 
 /// fit_robust_plane of `count` <= L points: offsets[l], weights[l], scratch[l] as there (sizes
