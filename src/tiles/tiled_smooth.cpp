@@ -278,8 +278,11 @@ class Run {
            (params_.stop_lambda_ratio > 0.0 || params_.stop_plateau > 0.0);
   }
   bool compensated() const { return params_.shrink_compensation > 0.0; }
-  // Steps load a tile with the rings of its lists' closure (BlockSlot) rather than one halo.
-  bool blocks() const { return options_.temporal_block > 1 || compensated(); }
+  bool temporal_blocks() const { return options_.temporal_block > 1; }
+  // Steps load a tile with the rings of its lists' closure (BlockSlot) rather than one halo:
+  // temporal blocks, and compensated steps unless the positions are held in memory (then a
+  // compensated step is two passes over the held tiles, each with its one halo).
+  bool blocks() const { return temporal_blocks() || (compensated() && !holding_); }
   // Levels of a block of h steps (BlockSlot): h, or 2 h when compensated.
   int block_depth(int h) const { return compensated() ? 2 * h : h; }
   std::string current_source() const {
@@ -360,6 +363,8 @@ class Run {
   bool holding_ = false;
   int held_cur_ = 0;
   std::array<std::vector<Vec3>, 2> held_;
+  // A compensated step's plain updates (euler_step), laid out as held_ (compensated only).
+  std::vector<Vec3> held_updated_;
   std::vector<std::uint64_t> held_base_;
   std::vector<std::vector<std::uint64_t>> held_halo_;
   // held_slot_[g - my_first_row()]: where row g sits in its tile's lists (and in held_ after
@@ -1102,11 +1107,13 @@ void Run::prepare_lists(OutOfCoreReport& report) {
   // The lists of every tile in tile-local indices and Morton order (kept in memory while they
   // fit, else in /run/neighbors/local), before the steps: this is part of building them, as
   // the in-core run reorders its lists before its steps. Temporal blocks and compensated
-  // steps read the lists in container rows instead.
-  if (blocks()) return;
+  // steps read the lists in container rows instead, unless (compensated steps) the lists and
+  // the positions can be held in memory: then only while the lists still fit.
+  if (temporal_blocks()) return;
   const auto t0 = Clock::now();
   bool wrote = false;
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    if (compensated() && !caching_) break;
     if (tiles_.rows(t) == 0 || local_written_[t]) continue;
     const std::shared_ptr<const TileNeighbors> nb = neighbors_of(t);
     account(caching_ && cache_[t] == nb ? 0 : nb->bytes());
@@ -1265,6 +1272,7 @@ void Run::release_positions() {
   holding_ = false;
   held_cur_ = 0;
   held_ = {};
+  held_updated_ = {};
   held_base_ = {};
   held_halo_ = {};
   held_slot_ = {};
@@ -1274,9 +1282,10 @@ void Run::release_positions() {
 
 void Run::hold_positions() {
   release_positions();
-  if (blocks() || !caching_) return;
+  if (temporal_blocks() || !caching_) return;
   // Every tile's lists in memory, every halo row in this rank's tiles, and room for two
-  // copies of every tile with its halo next to what the run keeps and the tiles in flight.
+  // copies of every tile with its halo (three when compensated) next to what the run keeps
+  // and the tiles in flight.
   std::vector<std::uint64_t> base(tiles_.size() + 1, 0);
   std::uint64_t total = 0, halo_total = 0;
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
@@ -1289,7 +1298,8 @@ void Run::hold_positions() {
     total += tiles_.rows(t) + nb->halo_rows.size();
     halo_total += nb->halo_rows.size();
   }
-  const std::uint64_t need = 2 * total * sizeof(Vec3) + halo_total * sizeof(std::uint64_t) + bytes(base) +
+  const std::uint64_t copies = compensated() ? 3 : 2;
+  const std::uint64_t need = copies * total * sizeof(Vec3) + halo_total * sizeof(std::uint64_t) + bytes(base) +
                              (my_end_row() - my_first_row()) * sizeof(Index);  // the inverse orders below
   if (persistent_bytes() + need + slots_ * (slot_estimate_ + slot_estimate_ / 2) > options_.memory_budget) return;
   // Tile u's point at row offset r sits at slot inverse[offsets[u] - first + r] of its lists.
@@ -1318,6 +1328,7 @@ void Run::hold_positions() {
   account(need);
   held_base_ = std::move(base);
   for (auto& h : held_) h.resize(total);
+  if (compensated()) held_updated_.resize(total);
   held_slot_ = std::move(inverse);
   held_list_order_ = list_order;
   held_bytes_ = need;
@@ -1456,7 +1467,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
   std::vector<std::size_t> work;
   for (std::size_t t = first_tile_; t < end_tile_; ++t)
     if (tiles_.rows(t) > 0) work.push_back(t);
-  const std::size_t slot_count = pipeline_slots(bytes(identity));
+  std::size_t slot_count = pipeline_slots(bytes(identity));
   // After the slots are sized: the lists are cached only next to room for the tiles in flight.
   prepare_lists(report);
   {
@@ -1511,6 +1522,12 @@ bool Run::run_steps(OutOfCoreReport& report) {
       rebuild_neighbors(step);
       prepare_lists(report);
       hold_positions();
+      if (blocks() && block_slots.empty()) {
+        // Compensated steps whose positions no longer fit once the lists are rebuilt: blocks
+        // from here, with slots sized for them.
+        slot_count = pipeline_slots(bytes(identity));
+        block_slots.resize(slot_count);
+      }
       ++report.rebuilds;
       if (auto_lambda_on() && !every_step) {
         lambda = sample_lambda();
@@ -1549,6 +1566,11 @@ bool Run::run_steps(OutOfCoreReport& report) {
     std::vector<std::size_t> block_degenerate(static_cast<std::size_t>(h), 0);
     std::size_t degenerate = 0;
     PipelineStages stages;
+    // A compensated step with its positions held (shrink_compensation.hpp), in two passes: the
+    // plain step of every tile into held_updated_ (with the first tile's compute), then their
+    // halos copied in; each tile's compute then compensates from both.
+    std::vector<StepStats> plain_stats(compensated() ? tiles_.size() : 0);
+    bool updated_ready = false;
     if (blocks()) {
       stages.read = [&](std::size_t item, std::size_t slot) {
         read_block(work[item], block_depth(h), source, block_slots[slot]);
@@ -1594,6 +1616,28 @@ bool Run::run_steps(OutOfCoreReport& report) {
       // on the writing thread it cost about as much as half the isotropic step (1M points,
       // 2 threads: 16.3M point-steps/s out of core with it there, 19.1M without).
       const bool scatter_on_compute = thread_count() > 1;
+      const auto plain_updates = [&] {
+        std::vector<Vec3>& cur = held_[static_cast<std::size_t>(held_cur_)];
+        for (const std::size_t t : work) {
+          const std::uint64_t rows = tiles_.rows(t), base = held_base_[t];
+          const std::vector<std::uint64_t>& from = held_halo_[t];
+          Vec3* const halo = cur.data() + base + rows;
+          parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
+            for (std::size_t j = b; j < e; ++j) halo[j] = cur[from[j]];
+          }, 8192);
+          const std::span<const Vec3> local(cur.data() + base, rows + from.size());
+          plain_stats[t] = euler_step(local, cache_[t]->local, std::span<const Index>(identity.data(), rows),
+                                      params_.flow, lambda, std::span<Vec3>(held_updated_.data() + base, rows));
+        }
+        for (const std::size_t t : work) {
+          const std::uint64_t rows = tiles_.rows(t), base = held_base_[t];
+          const std::vector<std::uint64_t>& from = held_halo_[t];
+          Vec3* const halo = held_updated_.data() + base + rows;
+          parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
+            for (std::size_t j = b; j < e; ++j) halo[j] = held_updated_[from[j]];
+          }, 8192);
+        }
+      };
       const auto to_file_order = [this](Slot& s) {
         const std::uint64_t rows = tiles_.rows(s.tile);
         const Vec3* const out = held_[static_cast<std::size_t>(1 - held_cur_)].data() + held_base_[s.tile];
@@ -1604,21 +1648,30 @@ bool Run::run_steps(OutOfCoreReport& report) {
             for (std::size_t r = b; r < e; ++r) s.next[order[r]] = out[r];
         }, 8192);
       };
-      stages.compute = [&, to_file_order, scatter_on_compute](std::size_t slot) {
+      stages.compute = [&, to_file_order, scatter_on_compute, plain_updates](std::size_t slot) {
         Slot& s = slots[slot];
         const std::uint64_t rows = tiles_.rows(s.tile), base = held_base_[s.tile];
-        // The halo from the tiles holding it, here on the compute threads (step-n positions:
-        // nothing writes them now; each tile's halo has its own place in the held buffer).
         std::vector<Vec3>& cur = held_[static_cast<std::size_t>(held_cur_)];
         const std::vector<std::uint64_t>& from = held_halo_[s.tile];
-        Vec3* const halo = cur.data() + base + rows;
-        parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
-          for (std::size_t j = b; j < e; ++j) halo[j] = cur[from[j]];
-        }, 8192);
         const std::span<const Vec3> local(cur.data() + base, rows + from.size());
         const std::span<Vec3> out(held_[static_cast<std::size_t>(1 - held_cur_)].data() + base, rows);
-        s.stats = euler_step(local, s.nb->local, std::span<const Index>(identity.data(), rows), params_.flow,
-                             lambda, out);
+        if (compensated()) {
+          if (!updated_ready) plain_updates();
+          updated_ready = true;
+          s.stats = plain_stats[s.tile];
+          compensate_shrinkage(local, std::span<const Vec3>(held_updated_.data() + base, rows + from.size()),
+                               s.nb->local, std::span<const Index>(identity.data(), rows),
+                               params_.shrink_compensation, out);
+        } else {
+          // The halo from the tiles holding it, here on the compute threads (step-n positions:
+          // nothing writes them now; each tile's halo has its own place in the held buffer).
+          Vec3* const halo = cur.data() + base + rows;
+          parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
+            for (std::size_t j = b; j < e; ++j) halo[j] = cur[from[j]];
+          }, 8192);
+          s.stats = euler_step(local, s.nb->local, std::span<const Index>(identity.data(), rows), params_.flow,
+                               lambda, out);
+        }
         if (scatter_on_compute && !list_order_step) to_file_order(s);
       };
       stages.write = [&, to_file_order, scatter_on_compute](std::size_t, std::size_t slot) {

@@ -159,7 +159,7 @@ TEST_F(TiledSmoothTest, OneAndTwoThreadsGiveTheSameBits) {
 // neighbour lists cached or re-read every step.
 TEST_F(TiledSmoothTest, PipelinedStepsGiveTheSameBits) {
   const io::PointTable cloud = test::noisy_cube(3000, 18);
-  // Plain steps: compensated ones run through the block path (ShrinkCompensationLikeInCore).
+  // Plain steps (compensated ones: ShrinkCompensationLikeInCore).
   SmoothParams params = few_steps(3);
   params.shrink_compensation = 0.0;
   set_thread_count(3);
@@ -276,7 +276,7 @@ TEST_F(TiledSmoothTest, StepsWrittenInListOrderStopAndResumeToTheSameBits) {
   const io::PointTable cloud = test::noisy_cube(3000, 25, 0.02);
   SmoothParams params;
   params.steps = 60;
-  params.shrink_compensation = 0.0;  // the compensated flow loads blocks and holds nothing
+  params.shrink_compensation = 0.0;
   const InCore ref = run_in_core(cloud, params);
   ASSERT_TRUE(ref.report.stopped_early) << "not the case this test is for";
   ASSERT_GT(ref.report.steps, 3);
@@ -460,8 +460,10 @@ TEST_F(TiledSmoothTest, AutomaticStopMatchesInCore) {
   expect_resumes_to(params, ref);
 }
 
-// --shrink-compensation: each tile is loaded with the 2-ring closure of its lists (the plain
-// updates of its halo need the halo's neighbours); the same bits as smooth() for any tiling,
+// --shrink-compensation: with the positions held in memory, a step is two passes over the
+// tiles (plain updates, then the compensation from them and their halos); otherwise each tile
+// is loaded with the 2-ring closure of its lists (the plain updates of its halo need the
+// halo's neighbours). The same bits as smooth() for any tiling,
 // lambda policy, pipeline depth and budget, with temporal blocks (2 h rings) and rebuilds, and
 // after a stop and --resume (also with another block length).
 TEST_F(TiledSmoothTest, ShrinkCompensationLikeInCore) {
@@ -495,6 +497,9 @@ TEST_F(TiledSmoothTest, ShrinkCompensationLikeInCore) {
     write_container(path("in.h5"), cloud, test::tiled(c.tiling, 256));
     const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params);
     EXPECT_TRUE(r.finished);
+    // Lists and positions fit the default budget: each step is two passes over the tiles
+    // held in memory.
+    EXPECT_TRUE(r.positions_held) << "not the case this test is for";
     EXPECT_EQ(r.steps, 4);
     EXPECT_EQ(r.lambda, ref.report.lambda);
     EXPECT_EQ(r.degenerate, ref.report.degenerate);
@@ -527,6 +532,8 @@ TEST_F(TiledSmoothTest, ShrinkCompensationLikeInCore) {
       options.temporal_block = h;
       const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, options);
       EXPECT_EQ(r.steps, 5);
+      // Held when single steps fit (two passes), else blocks of 2 h rings.
+      EXPECT_EQ(r.positions_held, h == 1 && budget > (1u << 20)) << "not the case this test is for";
       EXPECT_LE(r.peak_accounted_bytes, budget);
       EXPECT_EQ(r.lambda, ref.report.lambda);
       expect_identical(path("run.h5"), ref);
