@@ -357,7 +357,12 @@ TEST_F(TiledSmoothTest, TemporalBlocksGiveTheSameBits) {
       params.lambda_every_step = false;
       params.rebuild_interval = rebuild;
       const InCore ref = run_in_core(cloud, params);
-      const OutOfCoreReport one = smooth_out_of_core(path("in.h5"), path("one.h5"), params);
+      // One step a load, in a budget too small to hold the positions (held, a run reads them
+      // once): each step loads every tile with its 2-ring closure.
+      OutOfCoreOptions streamed;
+      streamed.memory_budget = std::uint64_t{800} << 10;
+      const OutOfCoreReport one = smooth_out_of_core(path("in.h5"), path("one.h5"), params, streamed);
+      EXPECT_FALSE(one.positions_held) << "not the case this test is for";
       expect_identical(path("one.h5"), ref);
       for (const int h : {2, 3}) {
         SCOPED_TRACE(testing::Message() << "h = " << h);

@@ -87,8 +87,9 @@ struct OutOfCoreReport {
   /// Neighbour lists kept in memory across steps (they fit in the budget) or re-read.
   bool neighbors_cached = false;
   /// The steps' positions kept in memory as well (every tile's lists cached, two copies of
-  /// every tile with its halo fit in the budget, one process): each step still goes to the
-  /// run file and is committed, but is read from the file by the first step only.
+  /// every tile with its halo fit in the budget, three with SmoothParams::shrink_compensation,
+  /// every halo in this rank's tiles): each step still goes to the run file and is committed,
+  /// but is read from the file by the first step only.
   bool positions_held = false;
   /// The largest working set the run accounted for (bytes), and the largest tile + halo.
   std::uint64_t peak_accounted_bytes = 0;
