@@ -117,6 +117,14 @@ Neighborhoods build_neighborhoods(const KdTree& tree, std::span<const Index> que
   return grid_neighborhoods(grid, queries, k, eps, &tree);
 }
 
+Neighborhoods build_neighborhoods(std::span<const Vec3> points, std::span<const Index> queries, int k,
+                                  double eps) {
+  require(k >= 1 && k <= 1024, "k must be in 1..1024, got " + std::to_string(k));
+  require(eps > 0.0, "eps must be positive");
+  const CellGrid grid = build_cell_grid(points, k, eps);
+  return grid_neighborhoods(grid, queries, k, eps, nullptr);
+}
+
 Neighborhoods build_neighborhoods(std::span<const Vec3> points, const NeighborParams& params) {
   return build_neighborhoods(points, params, {});
 }

@@ -63,6 +63,10 @@ Neighborhoods build_neighborhoods(std::span<const Vec3> points, const NeighborPa
 Neighborhoods build_neighborhoods(const KdTree& tree, std::span<const Index> queries, int k,
                                   double eps);
 
+/// The same without a tree at hand: one is built over `points` only if the grid leaves more
+/// than a few queries unsettled (points far off a dense surface).
+Neighborhoods build_neighborhoods(std::span<const Vec3> points, std::span<const Index> queries, int k,
+                                  double eps);
 /// The same rows through one k-d tree query per row and no grid: the reference path.
 Neighborhoods build_neighborhoods_kd_tree(const KdTree& tree, std::span<const Index> queries,
                                           int k, double eps);

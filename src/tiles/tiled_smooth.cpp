@@ -758,8 +758,7 @@ void Run::build_neighbors(int step) {
     if (rows == 0) continue;
     for (double halo = first_halo(t);; halo *= 2.0) {
       LocalSet local = gather_local(t, halo);
-      const KdTree tree(local.positions);
-      const Neighborhoods nb = build_neighborhoods(tree, local.queries, k(), eps_);
+      const Neighborhoods nb = build_neighborhoods(local.positions, local.queries, k(), eps_);
       // Exact when the halo holds every point within eps, or, for a larger eps, when every
       // point's (k+1)-th nearest point lies inside the halo.
       bool ok = std::isfinite(eps_) || covers_all(t, halo);
