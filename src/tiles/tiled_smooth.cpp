@@ -1119,7 +1119,9 @@ void Run::prepare_lists(OutOfCoreReport& report) {
     wrote = true;
   }
   // The lists just written (k + 1 values a point) reach the disk here, with the rest of
-  // building them, rather than with the first step's commit.
+  // building them, rather than with the first step's commit. A flush is collective: every
+  // rank flushes if any wrote (a rank without tiles writes none).
+  if (ranks_->size() > 1) wrote = ranks_->sum(wrote ? 1 : 0) > 0;
   if (wrote) file().flush();
   report.seconds_neighbors += seconds_since(t0);
 }
@@ -1281,26 +1283,31 @@ void Run::release_positions() {
 
 void Run::hold_positions() {
   release_positions();
-  if (temporal_blocks() || !caching_) return;
   // Every tile's lists in memory, every halo row in this rank's tiles, and room for two
   // copies of every tile with its halo (three when compensated) next to what the run keeps
   // and the tiles in flight.
+  bool able = !temporal_blocks() && caching_;
   std::vector<std::uint64_t> base(tiles_.size() + 1, 0);
   std::uint64_t total = 0, halo_total = 0;
-  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+  for (std::size_t t = first_tile_; t < end_tile_ && able; ++t) {
     base[t] = total;
     if (tiles_.rows(t) == 0) continue;
     const TileNeighbors* nb = cache_[t].get();
-    if (nb == nullptr) return;
-    for (const std::uint64_t g : nb->halo_rows)
-      if (g < my_first_row() || g >= my_end_row()) return;
+    able = nb != nullptr;
+    for (std::size_t j = 0; able && j < nb->halo_rows.size(); ++j)
+      able = nb->halo_rows[j] >= my_first_row() && nb->halo_rows[j] < my_end_row();
+    if (!able) break;
     total += tiles_.rows(t) + nb->halo_rows.size();
     halo_total += nb->halo_rows.size();
   }
   const std::uint64_t copies = compensated() ? 3 : 2;
   const std::uint64_t need = copies * total * sizeof(Vec3) + halo_total * sizeof(std::uint64_t) + bytes(base) +
                              (my_end_row() - my_first_row()) * sizeof(Index);  // the inverse orders below
-  if (persistent_bytes() + need + slots_ * (slot_estimate_ + slot_estimate_ / 2) > options_.memory_budget) return;
+  able = able && persistent_bytes() + need + slots_ * (slot_estimate_ + slot_estimate_ / 2) <= options_.memory_budget;
+  // Every rank holds, or none: the steps' commit records (list order or not) and the
+  // collective writes of to_row_order are shared.
+  if (ranks_->size() > 1) able = ranks_->sum(able ? 0 : 1) == 0;
+  if (!able) return;
   // Tile u's point at row offset r sits at slot inverse[offsets[u] - first + r] of its lists.
   std::vector<Index> inverse(my_end_row() - my_first_row());
   bool list_order = local_order_;
@@ -1312,6 +1319,7 @@ void Run::hold_positions() {
     for (std::uint64_t r = 0; r < rows; ++r)
       inverse[at + (order.empty() ? r : order[r])] = static_cast<Index>(r);
   }
+  if (ranks_->size() > 1) list_order = ranks_->sum(list_order ? 0 : 1) == 0;
   held_halo_.assign(tiles_.size(), {});
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     if (tiles_.rows(t) == 0) continue;
