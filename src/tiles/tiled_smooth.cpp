@@ -14,7 +14,7 @@
 
 #include <Eigen/Geometry>
 
-#include "pointfair/kd_tree.hpp"
+#include "pointfair/nearest_points.hpp"
 #include "pointfair/neighborhood_size.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
@@ -630,6 +630,8 @@ LocalSet Run::gather_local(std::size_t t, double halo) const {
       orig.read_rows(first, count, index.data());
       for (std::uint64_t r = 0; r < count; ++r) {
         const Vec3 p(xyz[3 * r], xyz[3 * r + 1], xyz[3 * r + 2]);
+        if (!p.allFinite())
+          file().fail(neighbor_source_, "row " + std::to_string(first + r) + " has a non-finite coordinate");
         bool inside = u == t;
         if (!inside) {
           inside = true;
@@ -674,23 +676,25 @@ void Run::for_each_sample_knn(std::uint64_t stride, int want, const char* stage,
     if (mine.empty()) continue;
     for (double halo = first_halo(t);; halo *= 2.0) {
       const LocalSet local = gather_local(t, halo);
-      account(local.bytes() + local.positions.size() * 16);
-      const KdTree tree(local.positions);
+      std::vector<Index> queries(mine.size());
+      for (std::size_t i = 0; i < mine.size(); ++i) queries[i] = local.queries[mine[i].second];
+      const NearestPoints near = nearest_points(local.positions, queries, want);
+      // The cell grid held about 48 bytes a point while it searched.
+      account(local.bytes() + local.positions.size() * 48 + bytes(queries) + bytes(near.indices) +
+              bytes(near.distances2) + bytes(near.counts));
       const bool all = covers_all(t, halo);
       std::atomic<bool> ok{true};
       parallel_for(mine.size(), [&](std::size_t b, std::size_t e) {
-        std::vector<Index> idx(static_cast<std::size_t>(want));
-        std::vector<double> d2(static_cast<std::size_t>(want));
         for (std::size_t i = b; i < e; ++i) {
-          const Vec3& q = local.positions[local.queries[mine[i].second]];
-          const int found = tree.nearest(q, want, std::numeric_limits<double>::infinity(), idx.data(), d2.data());
+          const std::span<const Index> idx = near.indices_of(i);
+          const std::span<const double> d2 = near.distances2_of(i);
+          const int found = near.counts[i];
           // Settled when the halo holds all `want` points: the farthest lies inside it.
           if (!all && (found < want || !(std::sqrt(d2[static_cast<std::size_t>(found - 1)]) < halo * (1.0 - kHaloMargin)))) {
             ok = false;
             continue;
           }
-          measure(mine[i].first, std::span<const Index>(idx.data(), static_cast<std::size_t>(found)),
-                  std::span<const double>(d2.data(), static_cast<std::size_t>(found)), local.positions);
+          measure(mine[i].first, idx, d2, local.positions);
         }
       }, 64);
       if (ok) break;

@@ -123,6 +123,37 @@ TEST_F(TiledSmoothTest, AutomaticKLikeInCore) {
   expect_stopped_and_resumed_identical(params, {}, 1, ref);
 }
 
+// The automatic k and eps measure each sample's nearest points (itself included) through the
+// cell grid (nearest_points, checked row by row against the k-d tree in its own tests). With
+// 200 copies of one point (more than the 129 nearest points k measures): the same k, eps and
+// bits as in core, in one tile and in many. A non-finite coordinate in a container (which no
+// reader lets in) is an error naming the file.
+TEST_F(TiledSmoothTest, AutomaticKAndEpsWithManyDuplicatesLikeInCore) {
+  io::PointTable cloud = test::noisy_cube(2000, 27, 0.03);
+  const Vec3 copied = cloud.positions[17];
+  cloud.positions.insert(cloud.positions.begin() + 1000, 200, copied);
+  for (io::Attribute& a : cloud.attributes) a.values.insert(a.values.begin() + 1000, 200, 1.0);
+  SmoothParams params = few_steps(2);
+  const InCore ref = run_in_core(cloud, params);
+  for (const TilingParams& tiling : {TilingParams{.max_tile_points = 1u << 20}, TilingParams{.max_tile_points = 150}}) {
+    write_container(path("in.h5"), cloud, test::tiled(tiling, 512));
+    const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params);
+    EXPECT_EQ(r.k, ref.report.k);
+    EXPECT_EQ(r.eps, ref.report.eps);
+    expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+  }
+  cloud.positions[1500].y() = std::numeric_limits<double>::quiet_NaN();
+  write_container(path("nan.h5"), cloud, test::tiled({.max_tile_points = 150}, 512));
+  try {
+    smooth_out_of_core(path("nan.h5"), path("run.h5"), params);
+    ADD_FAILURE() << "no error";
+  } catch (const io::IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("non-finite"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nan.h5"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(TiledSmoothTest, IsotropicConstrainedAndGatedFlowsToo) {
   const io::PointTable cloud = test::noisy_cube(4000, 12);
   for (int variant = 0; variant < 5; ++variant) {
