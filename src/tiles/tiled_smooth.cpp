@@ -1745,7 +1745,15 @@ bool Run::run_steps(OutOfCoreReport& report) {
         write(item, slot);
       };
     }
-    const std::size_t in_flight = list_order_step ? slots.size() : slot_count;
+    std::size_t in_flight = list_order_step ? slots.size() : slot_count;
+    if (holding_ && !blocks() && !list_order_step) {
+      // A held step in row order (the last, or one before a rebuild): a slot holds only its
+      // tile's rows in file order (`next`), so as many as fit in the room kept for the slots
+      // are in flight, and the computes need not wait for the previous step's commit.
+      const std::uint64_t room = slots_ * (slot_estimate_ + slot_estimate_ / 2);
+      const std::uint64_t per_slot = std::max<std::uint64_t>(1, max_tile_rows_ * sizeof(Vec3));
+      in_flight = static_cast<std::size_t>(std::clamp<std::uint64_t>(room / per_slot, slot_count, slots.size()));
+    }
     most_in_flight_ = std::max<std::uint64_t>(most_in_flight_, std::min(in_flight, work.size()));
     run_pipeline(work.size(), in_flight, stages);
     if (holding_) held_cur_ = 1 - held_cur_;
