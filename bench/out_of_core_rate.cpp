@@ -146,8 +146,12 @@ void print_out_of_core(const OutOfCoreSection& s) {
                 100.0 * row.ratio, row.identical ? "" : "  RESULT DIFFERS FROM IN CORE");
 }
 
-std::string out_of_core_json(const OutOfCoreSection& s) {
-  std::string json = "\"out_of_core\": {\"memory_budget_bytes\": " + std::to_string(s.options.memory_budget) +
+std::uint64_t streamed_budget(std::uint64_t points) {
+  return std::max<std::uint64_t>(std::uint64_t{16} << 20, points * 64);
+}
+
+std::string out_of_core_json(const OutOfCoreSection& s, const std::string& name) {
+  std::string json = "\"" + name + "\": {\"memory_budget_bytes\": " + std::to_string(s.options.memory_budget) +
                      ", \"tile_points\": " + std::to_string(s.tile_points) + ", \"tiles\": " +
                      std::to_string(s.tiles) + ", \"temporal_block\": " + std::to_string(s.options.temporal_block) +
                      ", \"lambda_schedule\": \"" + (s.lambda_once ? "once" : "every_step") + "\"" +

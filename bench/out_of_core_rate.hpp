@@ -69,9 +69,13 @@ struct OutOfCoreSection {
 OutOfCoreSection measure_out_of_core(const std::vector<Vec3>& cloud, int k, int cores, int repeats,
                                      const std::function<SmoothParams(Flow)>& params_for,
                                      const OutOfCoreRateOptions& options);
-/// The section as lines of the tool's table, and as a JSON member ("out_of_core": {...}).
+/// The section as lines of the tool's table, and as a JSON member (`name`: {...}).
 void print_out_of_core(const OutOfCoreSection& section);
-std::string out_of_core_json(const OutOfCoreSection& section);
+std::string out_of_core_json(const OutOfCoreSection& section, const std::string& name = "out_of_core");
+
+/// A budget too small for the run to keep a cloud of `points` points in memory between steps
+/// (its neighbour lists alone take (k + 1) 4 bytes a point): 64 bytes a point, at least 16 MiB.
+std::uint64_t streamed_budget(std::uint64_t points);
 
 /// Most points per tile `pointfair import --memory-budget` picks for `budget` and k.
 std::uint64_t tile_points_for_budget(std::uint64_t budget, int k);

@@ -14,8 +14,11 @@
 //
 // Out of core (out_of_core_rate.hpp): the cloud imported into a container in a temporary
 // directory, iso and aniso steps run on it with a memory budget (default 256 MiB, the CLI's)
-// for 1..all threads, each paired with an in-core run and reported as a ratio to it.
-// --out-of-core-only measures that section alone (no build rate, step table or full run).
+// for 1..all threads, each paired with an in-core run and reported as a ratio to it. Without
+// --ooc-budget a second such section streams: a budget of 64 bytes a point (at least 16 MiB)
+// keeps neither the lists nor the positions in memory between steps, as for a cloud larger
+// than the memory ("out_of_core_streamed" in the JSON).
+// --out-of-core-only measures those sections alone (no build rate, step table or full run).
 //
 // --neighbors-only times the neighbourhood build alone (the path build_neighborhoods takes;
 // with --kd-tree the same lists through one k-d tree query per point, the old path) for
@@ -183,6 +186,7 @@ int main(int argc, char** argv) {
   bool memory = true, cgal = true, neighbors_only = false, kd_tree = false;
   bool out_of_core = true, out_of_core_only = false;
   bench::OutOfCoreRateOptions ooc;
+  bool budget_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has_value = i + 1 < argc;
@@ -192,7 +196,10 @@ int main(int argc, char** argv) {
     else if (a == "--kd-tree") kd_tree = true;
     else if (a == "--no-out-of-core") out_of_core = false;
     else if (a == "--out-of-core-only") out_of_core_only = true;
-    else if (a == "--ooc-budget" && has_value) ooc.memory_budget = std::strtoull(argv[++i], nullptr, 10) << 20;
+    else if (a == "--ooc-budget" && has_value) {
+      ooc.memory_budget = std::strtoull(argv[++i], nullptr, 10) << 20;
+      budget_given = true;
+    }
     else if (a == "--ooc-tile-points" && has_value) ooc.tile_points = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--ooc-temporal-block" && has_value) ooc.temporal_block = std::atoi(argv[++i]);
     else if (a == "--points" && has_value) points = std::strtoull(argv[++i], nullptr, 10);
@@ -233,22 +240,35 @@ int main(int argc, char** argv) {
               "median of %d runs\n\n", version(), points, k, steps, repeats);
 
   // The out-of-core section (out_of_core_rate.hpp); a failure is one line and exit status 1.
-  const auto measure_ooc = [&]() -> std::optional<bench::OutOfCoreSection> {
+  // Without --ooc-budget, a second section streams: its budget (bench::streamed_budget) keeps
+  // neither the lists nor the positions in memory, as for a cloud larger than the memory.
+  bench::OutOfCoreRateOptions streamed = ooc;
+  streamed.memory_budget = bench::streamed_budget(points);
+  streamed.tile_points = 0;
+  const auto measure_ooc = [&](const bench::OutOfCoreRateOptions& options) -> std::optional<bench::OutOfCoreSection> {
     try {
       return bench::measure_out_of_core(cloud, k, cores, repeats,
-                                        [&](Flow flow) { return step_params(flow, k, steps); }, ooc);
+                                        [&](Flow flow) { return step_params(flow, k, steps); }, options);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "%s: out of core: %s\n", argv[0], e.what());
       return std::nullopt;
     }
   };
   if (out_of_core_only) {
-    const std::optional<bench::OutOfCoreSection> section = measure_ooc();
+    const std::optional<bench::OutOfCoreSection> section = measure_ooc(ooc);
     if (!section) return 1;
     bench::print_out_of_core(*section);
-    const std::string json = "{\"points\": " + std::to_string(points) + ", \"k\": " + std::to_string(k) +
-                             ", \"steps\": " + std::to_string(steps) + ", \"cores\": " + std::to_string(cores) +
-                             ", " + bench::out_of_core_json(*section) + "}";
+    std::optional<bench::OutOfCoreSection> streamed_section;
+    if (!budget_given) {
+      streamed_section = measure_ooc(streamed);
+      if (!streamed_section) return 1;
+      bench::print_out_of_core(*streamed_section);
+    }
+    std::string json = "{\"points\": " + std::to_string(points) + ", \"k\": " + std::to_string(k) +
+                       ", \"steps\": " + std::to_string(steps) + ", \"cores\": " + std::to_string(cores) +
+                       ", " + bench::out_of_core_json(*section);
+    if (streamed_section) json += ", " + bench::out_of_core_json(*streamed_section, "out_of_core_streamed");
+    json += "}";
     if (!json_path.empty()) std::ofstream(json_path) << json << "\n";
     std::printf("\n%s\n", json.c_str());
     return 0;
@@ -308,10 +328,14 @@ int main(int argc, char** argv) {
     }
   }
   set_thread_count(0);
-  std::optional<bench::OutOfCoreSection> ooc_section;
+  std::optional<bench::OutOfCoreSection> ooc_section, streamed_section;
   if (out_of_core) {
-    ooc_section = measure_ooc();
+    ooc_section = measure_ooc(ooc);
     if (!ooc_section) return 1;
+    if (!budget_given) {
+      streamed_section = measure_ooc(streamed);
+      if (!streamed_section) return 1;
+    }
   }
   double aniso_all = 0.0;
   for (const Row& row : rows)
@@ -370,6 +394,7 @@ int main(int argc, char** argv) {
     std::printf("  %-5s speed-up %d vs 1 thread: %.2fx\n", flow, cores, one > 0 ? all / one : 0.0);
   }
   if (ooc_section) bench::print_out_of_core(*ooc_section);
+  if (streamed_section) bench::print_out_of_core(*streamed_section);
   std::printf("  full default run: automatic k = %d, %d steps%s, %.2f s\n", full.k, full.steps,
               full.stopped_early ? " (automatic stop)" : "", full_seconds);
   if (memory) {
@@ -413,6 +438,7 @@ int main(int argc, char** argv) {
             number(aniso_all / peers[i].points_per_second) + "}";
   json += "]";
   if (ooc_section) json += ", " + bench::out_of_core_json(*ooc_section);
+  if (streamed_section) json += ", " + bench::out_of_core_json(*streamed_section, "out_of_core_streamed");
   json += "}";
   if (!json_path.empty()) std::ofstream(json_path) << json << "\n";
   std::printf("\n%s\n", json.c_str());
