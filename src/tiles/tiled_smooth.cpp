@@ -255,6 +255,8 @@ class Run {
   bool run_steps(OutOfCoreReport& report);
   void hold_positions();
   void load_held(const h5::Dataset& source);
+  // Tile t's halo in a buffer laid out as held_, from the tiles holding its points.
+  void copy_halo(std::vector<Vec3>& buffer, std::size_t t) const;
   void release_positions();
   std::size_t write_attributes(double lambda);
   void finish(std::size_t attributes_degenerate, double lambda);
@@ -1397,6 +1399,14 @@ void Run::to_row_order() {
   commit_state();
 }
 
+void Run::copy_halo(std::vector<Vec3>& buffer, std::size_t t) const {
+  const std::vector<std::uint64_t>& from = held_halo_[t];
+  Vec3* const halo = buffer.data() + held_base_[t] + tiles_.rows(t);
+  parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
+    for (std::size_t j = b; j < e; ++j) halo[j] = buffer[from[j]];
+  }, 8192);
+}
+
 void Run::load_held(const h5::Dataset& source) {
   // Each tile's rows, read whole and put in the order of its lists; the halos are copied in
   // by the steps.
@@ -1631,23 +1641,12 @@ bool Run::run_steps(OutOfCoreReport& report) {
         std::vector<Vec3>& cur = held_[static_cast<std::size_t>(held_cur_)];
         for (const std::size_t t : work) {
           const std::uint64_t rows = tiles_.rows(t), base = held_base_[t];
-          const std::vector<std::uint64_t>& from = held_halo_[t];
-          Vec3* const halo = cur.data() + base + rows;
-          parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
-            for (std::size_t j = b; j < e; ++j) halo[j] = cur[from[j]];
-          }, 8192);
-          const std::span<const Vec3> local(cur.data() + base, rows + from.size());
+          copy_halo(cur, t);
+          const std::span<const Vec3> local(cur.data() + base, rows + held_halo_[t].size());
           plain_stats[t] = euler_step(local, cache_[t]->local, std::span<const Index>(identity.data(), rows),
                                       params_.flow, lambda, std::span<Vec3>(held_updated_.data() + base, rows));
         }
-        for (const std::size_t t : work) {
-          const std::uint64_t rows = tiles_.rows(t), base = held_base_[t];
-          const std::vector<std::uint64_t>& from = held_halo_[t];
-          Vec3* const halo = held_updated_.data() + base + rows;
-          parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
-            for (std::size_t j = b; j < e; ++j) halo[j] = held_updated_[from[j]];
-          }, 8192);
-        }
+        for (const std::size_t t : work) copy_halo(held_updated_, t);
       };
       const auto to_file_order = [this](Slot& s) {
         const std::uint64_t rows = tiles_.rows(s.tile);
@@ -1676,10 +1675,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         } else {
           // The halo from the tiles holding it, here on the compute threads (step-n positions:
           // nothing writes them now; each tile's halo has its own place in the held buffer).
-          Vec3* const halo = cur.data() + base + rows;
-          parallel_for(from.size(), [&](std::size_t b, std::size_t e) {
-            for (std::size_t j = b; j < e; ++j) halo[j] = cur[from[j]];
-          }, 8192);
+          copy_halo(cur, s.tile);
           s.stats = euler_step(local, s.nb->local, std::span<const Index>(identity.data(), rows), params_.flow,
                                lambda, out);
         }
