@@ -109,20 +109,28 @@ Neighborhoods build_neighborhoods_kd_tree(const KdTree& tree, std::span<const In
   return build_rows(tree, queries, {}, k, eps);
 }
 
-Neighborhoods build_neighborhoods(const KdTree& tree, std::span<const Index> queries, int k,
-                                  double eps) {
+namespace {
+
+// The rows of `queries` through a cell grid over `points`; `tree` (over the same points, or
+// null) answers what the grid cannot settle.
+Neighborhoods grid_rows(std::span<const Vec3> points, std::span<const Index> queries, int k, double eps,
+                        const KdTree* tree) {
   require(k >= 1 && k <= 1024, "k must be in 1..1024, got " + std::to_string(k));
   require(eps > 0.0, "eps must be positive");
-  const CellGrid grid = build_cell_grid(tree.points(), k, eps);
-  return grid_neighborhoods(grid, queries, k, eps, &tree);
+  const CellGrid grid = build_cell_grid(points, k, eps);
+  return grid_neighborhoods(grid, queries, k, eps, tree);
+}
+
+}  // namespace
+
+Neighborhoods build_neighborhoods(const KdTree& tree, std::span<const Index> queries, int k,
+                                  double eps) {
+  return grid_rows(tree.points(), queries, k, eps, &tree);
 }
 
 Neighborhoods build_neighborhoods(std::span<const Vec3> points, std::span<const Index> queries, int k,
                                   double eps) {
-  require(k >= 1 && k <= 1024, "k must be in 1..1024, got " + std::to_string(k));
-  require(eps > 0.0, "eps must be positive");
-  const CellGrid grid = build_cell_grid(points, k, eps);
-  return grid_neighborhoods(grid, queries, k, eps, nullptr);
+  return grid_rows(points, queries, k, eps, nullptr);
 }
 
 Neighborhoods build_neighborhoods(std::span<const Vec3> points, const NeighborParams& params) {

@@ -165,12 +165,16 @@ void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> nor
   }, 256);
 }
 
-void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params) {
-  params.validate();
+Neighborhoods quadric_neighborhoods(std::span<const Vec3> points, const QuadricProjectionParams& params) {
   NeighborParams wide;
   wide.k = params.k;
   wide.eps = std::numeric_limits<double>::infinity();
-  const Neighborhoods neighborhoods = build_neighborhoods(points, wide);
+  return build_neighborhoods(points, wide);
+}
+
+void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params) {
+  params.validate();
+  const Neighborhoods neighborhoods = quadric_neighborhoods(points, params);
   const std::vector<Vec3> normals = neighbourhood_normals(points, neighborhoods, params);
   std::vector<Vec3> out(points.size());
   project_to_quadrics(points, normals, neighborhoods, params, out);

@@ -99,10 +99,7 @@ TEST(QuadricProjection, ParallelPassEqualsThePointwiseReference) {
   const std::vector<Vec3> p = Crease{M_PI / 4}.sample(3000, 0.005, 5);
   QuadricProjectionParams params;
   params.k = 40;
-  NeighborParams wide;
-  wide.k = params.k;
-  wide.eps = std::numeric_limits<double>::infinity();
-  const Neighborhoods nb = build_neighborhoods(p, wide);
+  const Neighborhoods nb = quadric_neighborhoods(p, params);
   const std::vector<Vec3> normals = neighbourhood_normals(p, nb, params);
   std::vector<Vec3> out(p.size());
   project_to_quadrics(p, normals, nb, params, out);

@@ -41,6 +41,9 @@ struct QuadricProjectionParams {
 Vec3 project_to_quadric(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points,
                         const QuadricProjectionParams& params);
 
+/// The fit's neighbourhoods: each point's params.k nearest others, no radius bound.
+Neighborhoods quadric_neighborhoods(std::span<const Vec3> points, const QuadricProjectionParams& params);
+
 /// Every point's normal: the robust plane over its first params.normal_neighbors neighbours in
 /// `neighborhoods` (row i: point i, nearest first). Zero where the plane is degenerate.
 std::vector<Vec3> neighbourhood_normals(std::span<const Vec3> points, const Neighborhoods& neighborhoods,
@@ -53,7 +56,7 @@ void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> nor
                          const Neighborhoods& neighborhoods, const QuadricProjectionParams& params,
                          std::span<Vec3> out);
 
-/// The whole pass on a cloud: its k nearest neighbours (no radius bound), their normals, and
+/// The whole pass on a cloud: quadric_neighborhoods, neighbourhood_normals and
 /// the projection of every point, in place. Throws ParamError on bad parameters.
 void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params);
 
