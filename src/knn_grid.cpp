@@ -25,6 +25,7 @@
 #include "pointfair/neighborhoods.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
+#include "huge_pages.hpp"
 
 namespace pointfair {
 namespace {
@@ -467,8 +468,10 @@ void radix_sort(std::vector<std::uint64_t>& keys, std::vector<Index>& values, in
   for (const std::uint64_t key : keys)
     for (int p = 0; p < passes; ++p)
       ++counts[static_cast<std::size_t>(p) * kBuckets + ((key >> (p * kDigit)) & (kBuckets - 1))];
-  std::vector<std::uint64_t> keys2(n);
-  std::vector<Index> values2(n);
+  std::vector<std::uint64_t> keys2;
+  std::vector<Index> values2;
+  detail::assign_huge(keys2, n, std::uint64_t{0});
+  detail::assign_huge(values2, n, Index{0});
   for (int p = 0; p < passes; ++p) {
     std::size_t* count = counts.data() + static_cast<std::size_t>(p) * kBuckets;
     if (std::find(count, count + kBuckets, n) != count + kBuckets) continue;  // one digit only
@@ -514,8 +517,9 @@ CellGrid build_cell_grid(std::span<const Vec3> points, int k, double eps) {
   }
 
   // Cell keys, then the points sorted by key (ties by index: the sort is stable).
-  std::vector<std::uint64_t> keys(n);
-  g.order.resize(n);
+  std::vector<std::uint64_t> keys;
+  detail::assign_huge(keys, n, std::uint64_t{0});
+  detail::assign_huge(g.order, n, Index{0});
   parallel_for(n, [&](std::size_t b, std::size_t e) {
     for (std::size_t i = b; i < e; ++i) {
       const Vec3& p = points[i];
@@ -528,9 +532,9 @@ CellGrid build_cell_grid(std::span<const Vec3> points, int k, double eps) {
   const auto max_key = static_cast<std::uint64_t>(g.dims[0] * g.dims[1] * g.dims[2] - 1);
   radix_sort(keys, g.order, static_cast<int>(std::bit_width(max_key)));
 
-  g.x.resize(n);
-  g.y.resize(n);
-  g.z.resize(n);
+  detail::assign_huge(g.x, n, 0.0);
+  detail::assign_huge(g.y, n, 0.0);
+  detail::assign_huge(g.z, n, 0.0);
   parallel_for(n, [&](std::size_t b, std::size_t e) {
     for (std::size_t s = b; s < e; ++s) {
       const Vec3& p = points[g.order[s]];
@@ -630,10 +634,30 @@ struct Candidates {
       d2.resize(size);
       id.resize(size);
     }
-    std::copy(g.x.data() + from, g.x.data() + to, x.data() + m);
-    std::copy(g.y.data() + from, g.y.data() + to, y.data() + m);
-    std::copy(g.z.data() + from, g.z.data() + to, z.data() + m);
-    std::copy(g.order.data() + from, g.order.data() + to, id.data() + m);
+    // One loop over the four arrays: the rows are short (a few cells), and four library
+    // copies per row cost more in calls than in bytes.
+    const double *gx = g.x.data() + from, *gy = g.y.data() + from, *gz = g.z.data() + from;
+    const Index* go = g.order.data() + from;
+    double *tx = x.data() + m, *ty = y.data() + m, *tz = z.data() + m;
+    Index* to_id = id.data() + m;
+    std::size_t j = 0;
+#if defined(__SSE2__)
+    for (; j + 2 <= add; j += 2) {
+      _mm_storeu_pd(tx + j, _mm_loadu_pd(gx + j));
+      _mm_storeu_pd(ty + j, _mm_loadu_pd(gy + j));
+      _mm_storeu_pd(tz + j, _mm_loadu_pd(gz + j));
+      _mm_storel_epi64(reinterpret_cast<__m128i*>(to_id + j),
+                       _mm_loadl_epi64(reinterpret_cast<const __m128i*>(go + j)));
+    }
+    if (j < add) {  // at most one left
+#else
+    for (; j < add; ++j) {
+#endif
+      tx[j] = gx[j];
+      ty[j] = gy[j];
+      tz[j] = gz[j];
+      to_id[j] = go[j];
+    }
     m += add;
   }
 
@@ -691,6 +715,10 @@ class Search {
                                     static_cast<std::int64_t>(key / (d0 * d1))};
       s.pending.clear();
       for (Index e = q_.first(qc); e < q_.first(qc + 1); ++e) s.pending.push_back(e);
+      // The next cell's output rows lie anywhere (rows in input order): their lines are
+      // fetched while this cell is searched.
+      if (qc + 1 < ce)
+        for (Index e = q_.first(qc + 1); e < q_.first(qc + 2); ++e) prefetch_row(q_.row(e));
       for (std::int64_t ring = 1; ring <= max_ring_ && !s.pending.empty(); ++ring) {
         if (!gather(s.block, cell, ring, ring == 1 ? cursor : nullptr)) break;
         s.still.clear();
@@ -965,6 +993,12 @@ class Search {
     return true;
   }
 
+  void prefetch_row(std::size_t row) const {
+    __builtin_prefetch(out_.indices.data() + row * static_cast<std::size_t>(k_), 1, 3);
+    __builtin_prefetch(out_.counts.data() + row, 1, 3);
+    if (!last_d2_.empty()) __builtin_prefetch(last_d2_.data() + row, 1, 3);
+  }
+
   // `ids`: the found points in order; `last`: the squared distance of the last of them.
   void write_row(std::size_t row, Index self, const Index* ids, int found, double last) const {
     if (!last_d2_.empty()) last_d2_[row] = found > 0 ? last : 0.0;
@@ -1011,7 +1045,7 @@ Neighborhoods search(const CellGrid& g, const Queries& q, int k, double eps, con
   Neighborhoods out;
   out.stride = k;
   out.eps = eps;
-  out.indices.assign(q.size() * static_cast<std::size_t>(k), 0);
+  detail::assign_huge(out.indices, q.size() * static_cast<std::size_t>(k), Index{0});
   out.counts.assign(q.size(), 0);
   std::vector<std::uint8_t> unresolved(q.size(), 0);
   require(last_d2.empty() || last_d2.size() == q.size(), "last_d2 must hold one value per row");

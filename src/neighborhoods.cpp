@@ -9,6 +9,7 @@
 #include "pointfair/knn_grid.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
+#include "huge_pages.hpp"
 
 namespace pointfair {
 
@@ -154,7 +155,8 @@ Neighborhoods build_neighborhoods(std::span<const Vec3> points, const NeighborPa
   // by eps is the prefix of the unbounded list within eps.
   const std::size_t n = points.size();
   const CellGrid grid = build_cell_grid(points, params.k, kInf);
-  std::vector<double> last_d2(n);
+  std::vector<double> last_d2;
+  detail::assign_huge(last_d2, n, 0.0);
   Neighborhoods nb = grid_neighborhoods(grid, params.k, kInf, row_of, last_d2);
   const auto row = [&](std::size_t p) { return row_of.empty() ? p : static_cast<std::size_t>(row_of[p]); };
   nb.eps = n < 2 ? kInf : auto_eps(n, params, [&](std::size_t stride, std::size_t samples, int) {

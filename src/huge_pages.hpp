@@ -1,0 +1,25 @@
+#pragma once
+// Large arrays written or read at random places (a neighbour list per point, in the input's
+// point order) miss the TLB on almost every access with 4 KiB pages. On Linux, such an array
+// asks for transparent huge pages before its pages are first touched. Internal: not installed.
+#include <cstddef>
+#include <vector>
+
+namespace pointfair::detail {
+
+/// Advises the kernel to back the whole 2 MiB pages within [data, data + bytes) with huge
+/// pages. Only a hint: nothing happens where the system does not support it.
+void advise_huge_pages(void* data, std::size_t bytes);
+
+/// v.assign(n, value), its storage advised for huge pages before it is first written.
+template <class T>
+void assign_huge(std::vector<T>& v, std::size_t n, const T& value) {
+  if (v.capacity() < n) {
+    std::vector<T>().swap(v);
+    v.reserve(n);
+    advise_huge_pages(v.data(), n * sizeof(T));
+  }
+  v.assign(n, value);
+}
+
+}  // namespace pointfair::detail
