@@ -28,6 +28,7 @@
 #include "pointfair/tiles/pipeline.hpp"
 #include "pointfair/tiles/ranks.hpp"
 #include "pointfair/version.hpp"
+#include "row_map.hpp"
 
 namespace pointfair::tiles {
 
@@ -158,6 +159,7 @@ struct BlockSlot {
   std::vector<std::uint64_t> rows;         // container row of each local point
   std::vector<std::uint64_t> sorted_rows;  // ring rows ascending, and their local indices
   std::vector<Index> sorted_local;
+  RowMap ring_local;                       // the same, looked up by row
   std::vector<std::uint32_t> global;       // lists of a level in container rows, while reading
   std::vector<std::uint16_t> counts;
   std::vector<Vec3> scratch;
@@ -166,7 +168,7 @@ struct BlockSlot {
     std::uint64_t b = tiles::bytes(level_end) + tiles::bytes(cur) + tiles::bytes(next) + tiles::bytes(updated) +
                       tiles::bytes(ids) +
                       tiles::bytes(degenerate) + tiles::bytes(rows) + tiles::bytes(sorted_rows) +
-                      tiles::bytes(sorted_local) + tiles::bytes(global) + tiles::bytes(counts) + tiles::bytes(scratch);
+                      tiles::bytes(sorted_local) + tiles::bytes(global) + tiles::bytes(counts) + tiles::bytes(scratch) + ring_local.bytes();
     for (const Neighborhoods& l : lists) b += tiles::bytes(l.indices) + tiles::bytes(l.counts);
     return b;
   }
@@ -1169,11 +1171,11 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
   std::iota(s.rows.begin(), s.rows.end(), begin);
   s.sorted_rows.clear();
   s.sorted_local.clear();
-  const auto local_of = [&](std::uint64_t g) -> std::optional<Index> {
+  s.ring_local.reset(0);  // grows with the rings
+  // The local index of a row of the tile or of a ring already added.
+  const auto local_of = [&](std::uint64_t g) -> Index {
     if (g >= begin && g < begin + rows) return static_cast<Index>(g - begin);
-    const auto it = std::lower_bound(s.sorted_rows.begin(), s.sorted_rows.end(), g);
-    if (it == s.sorted_rows.end() || *it != g) return std::nullopt;
-    return s.sorted_local[static_cast<std::size_t>(it - s.sorted_rows.begin())];
+    return *s.ring_local.find(g);
   };
   std::vector<std::uint64_t> level_rows, fresh, merged_rows;
   std::vector<Index> merged_local;
@@ -1193,10 +1195,13 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
     // The next ring: neighbours not yet local, in row order.
     fresh.clear();
     for (std::size_t r = 0; r < count; ++r)
-      for (std::size_t j = 0; j < s.counts[r]; ++j)
-        if (!local_of(s.global[r * kk + j])) fresh.push_back(s.global[r * kk + j]);
+      for (std::size_t j = 0; j < s.counts[r]; ++j) {
+        const std::uint64_t g = s.global[r * kk + j];
+        if ((g < begin || g >= begin + rows) && s.ring_local.insert(g, 0)) fresh.push_back(g);
+      }
     std::sort(fresh.begin(), fresh.end());
-    fresh.erase(std::unique(fresh.begin(), fresh.end()), fresh.end());
+    for (std::size_t f = 0; f < fresh.size(); ++f)
+      s.ring_local.set(fresh[f], static_cast<Index>(s.rows.size() + f));
     if (!fresh.empty()) {
       // Merge the ring into the sorted rows (local indices continue after the last level).
       merged_rows.clear();
@@ -1224,7 +1229,7 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
     nb.counts.assign(s.counts.begin(), s.counts.begin() + static_cast<std::ptrdiff_t>(count));
     nb.indices.assign(count * kk, 0);
     for (std::size_t r = 0; r < count; ++r)
-      for (std::size_t j = 0; j < s.counts[r]; ++j) nb.indices[r * kk + j] = *local_of(s.global[r * kk + j]);
+      for (std::size_t j = 0; j < s.counts[r]; ++j) nb.indices[r * kk + j] = local_of(s.global[r * kk + j]);
   }
   // Positions of step n: the tile's rows, then the rings read in ascending row order.
   s.cur.resize(s.rows.size());
@@ -1259,10 +1264,11 @@ std::size_t Run::pipeline_slots(std::uint64_t fixed) {
   const std::uint64_t list_bytes = static_cast<std::uint64_t>(k()) * sizeof(Index) + sizeof(std::uint16_t);
   const std::uint64_t per_local = (compensated() ? 3 : 2) * sizeof(Vec3) + 2 * sizeof(std::uint64_t) + sizeof(Index);
   const std::uint64_t per_listed = sizeof(Vec3) + sizeof(Index) + 2 * list_bytes;
+  const std::uint64_t per_ring = RowMap::kBytesPerRow;  // a ring row's entry in BlockSlot::ring_local
   slot_estimate_ = 0;
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t rows = tiles_.rows(t), h = t < halo.size() ? halo[t] : rows;
-    slot_estimate_ = std::max(slot_estimate_, d > 0 ? (rows + d * h) * per_local + (rows + (d - 1) * h) * per_listed
+    slot_estimate_ = std::max(slot_estimate_, d > 0 ? (rows + d * h) * per_local + (rows + (d - 1) * h) * per_listed + d * h * per_ring
                                                     : rows * per_row + h * (sizeof(Vec3) + sizeof(std::uint64_t)));
   }
   // As many slots as asked for, as long as they fit next to what the run keeps (with half an
