@@ -1172,13 +1172,11 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
   s.sorted_rows.clear();
   s.sorted_local.clear();
   s.ring_local.reset(0);  // grows with the rings
-  // The local index of a row of the tile or of a ring already added.
-  const auto local_of = [&](std::uint64_t g) -> Index {
-    if (g >= begin && g < begin + rows) return static_cast<Index>(g - begin);
-    return *s.ring_local.find(g);
-  };
+  // A ring row found in the current level, before the ring is numbered.
+  constexpr Index kNewRow = std::numeric_limits<Index>::max();
   std::vector<std::uint64_t> level_rows, fresh, merged_rows;
   std::vector<Index> merged_local;
+  std::vector<std::size_t> pending;  // entries of the level's lists naming a new row
   for (std::size_t l = 0; l < static_cast<std::size_t>(h); ++l) {
     const std::size_t first = l == 0 ? 0 : s.level_end[l - 1], count = s.level_end[l] - first;
     s.global.resize(count * kk);
@@ -1192,18 +1190,45 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
       list_rows.read_selected(level_rows, s.global.data());
       list_counts.read_selected(level_rows, s.counts.data());
     }
-    // The next ring: neighbours not yet local, in row order.
+    // The level's lists in local indices: at once where the row is the tile's or an earlier
+    // ring's; an entry naming a row new in this level waits for the new ring's numbering.
+    Neighborhoods& nb = s.lists[l];
+    nb.stride = k();
+    nb.eps = eps_;
+    nb.counts.assign(s.counts.begin(), s.counts.begin() + static_cast<std::ptrdiff_t>(count));
+    nb.indices.resize(count * kk);
     fresh.clear();
-    for (std::size_t r = 0; r < count; ++r)
-      for (std::size_t j = 0; j < s.counts[r]; ++j) {
-        const std::uint64_t g = s.global[r * kk + j];
-        if ((g < begin || g >= begin + rows) && s.ring_local.insert(g, 0)) fresh.push_back(g);
+    pending.clear();
+    for (std::size_t r = 0; r < count; ++r) {
+      Index* dst = nb.indices.data() + r * kk;
+      const std::uint32_t* src = s.global.data() + r * kk;
+      const std::size_t listed = s.counts[r];
+      for (std::size_t j = 0; j < listed; ++j) {
+        const std::uint64_t g = src[j];
+        if (g >= begin && g < begin + rows) {
+          dst[j] = static_cast<Index>(g - begin);
+          continue;
+        }
+        if (const Index* known = s.ring_local.find(g)) {
+          if (*known != kNewRow) {
+            dst[j] = *known;
+            continue;
+          }
+        } else {
+          s.ring_local.insert(g, kNewRow);
+          fresh.push_back(g);
+        }
+        pending.push_back(r * kk + j);
       }
+      std::fill(dst + listed, dst + kk, Index{0});
+    }
+    // The next ring: the new rows, numbered in row order after the last level.
     std::sort(fresh.begin(), fresh.end());
     for (std::size_t f = 0; f < fresh.size(); ++f)
       s.ring_local.set(fresh[f], static_cast<Index>(s.rows.size() + f));
+    for (const std::size_t e : pending) nb.indices[e] = *s.ring_local.find(s.global[e]);
     if (!fresh.empty()) {
-      // Merge the ring into the sorted rows (local indices continue after the last level).
+      // Merge the ring into the sorted rows.
       merged_rows.clear();
       merged_local.clear();
       std::size_t a = 0;
@@ -1222,14 +1247,6 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
       s.rows.insert(s.rows.end(), fresh.begin(), fresh.end());
     }
     s.level_end.push_back(s.rows.size());
-    // The level's lists in local indices (every neighbour is local now).
-    Neighborhoods& nb = s.lists[l];
-    nb.stride = k();
-    nb.eps = eps_;
-    nb.counts.assign(s.counts.begin(), s.counts.begin() + static_cast<std::ptrdiff_t>(count));
-    nb.indices.assign(count * kk, 0);
-    for (std::size_t r = 0; r < count; ++r)
-      for (std::size_t j = 0; j < s.counts[r]; ++j) nb.indices[r * kk + j] = local_of(s.global[r * kk + j]);
   }
   // Positions of step n: the tile's rows, then the rings read in ascending row order.
   s.cur.resize(s.rows.size());
