@@ -15,6 +15,8 @@ namespace pointfair::tiles {
 
 class RowMap {
  public:
+  RowMap() { reset(0); }
+
   /// Empties the map and makes room for about `expected` rows without growing.
   void reset(std::size_t expected) {
     const std::size_t capacity = std::bit_ceil(std::max<std::size_t>(16, 2 * expected));

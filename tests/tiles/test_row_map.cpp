@@ -40,6 +40,7 @@ TEST(RowMap, MatchesStdMapThroughGrowth) {
 
 TEST(RowMap, ResetEmptiesIt) {
   RowMap map;
+  EXPECT_EQ(map.find(42), nullptr);  // a new map is empty
   map.reset(4);
   EXPECT_TRUE(map.insert(42, 1));
   EXPECT_FALSE(map.insert(42, 2));
