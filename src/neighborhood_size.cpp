@@ -8,7 +8,7 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "pointfair/kd_tree.hpp"
+#include "pointfair/nearest_points.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
 
@@ -67,20 +67,22 @@ int automatic_k(std::span<const Vec3> points) {
   const std::size_t n = points.size();
   if (n < 8) return kAutoKMin;
   require_finite(points, "automatic k");
-  const KdTree tree(points);
   const std::size_t stride = noise_sample_stride(n);
   const std::size_t samples = (n + stride - 1) / stride;
   const int want = static_cast<int>(std::min<std::size_t>(kNoiseProbePoints, n));
+  std::vector<Index> queries(samples);
+  for (std::size_t s = 0; s < samples; ++s) queries[s] = static_cast<Index>(s * stride);
+  // Each sample's nearest points as a k-d tree gives them, through the cell grid: no tree
+  // over the whole cloud for a few thousand samples.
+  const NearestPoints nearest = nearest_points(points, queries, want);
   std::vector<double> ratios(samples);
   parallel_for(samples, [&](std::size_t begin, std::size_t end) {
-    std::vector<Index> idx(static_cast<std::size_t>(want));
-    std::vector<double> d2(static_cast<std::size_t>(want));
     std::vector<ProbePoint> probe;
     for (std::size_t s = begin; s < end; ++s) {
-      const int found = tree.nearest(points[s * stride], want, std::numeric_limits<double>::infinity(),
-                                     idx.data(), d2.data());
       probe.clear();
-      for (std::size_t j = 0; j < static_cast<std::size_t>(found); ++j) probe.push_back({d2[j], points[idx[j]]});
+      for (const Index j : nearest.indices_of(s)) probe.push_back({0.0, points[j]});
+      const std::span<const double> d2 = nearest.distances2_of(s);
+      for (std::size_t j = 0; j < probe.size(); ++j) probe[j].d2 = d2[j];
       ratios[s] = noise_ratio(probe, probe.size() == n);
     }
   }, 64);

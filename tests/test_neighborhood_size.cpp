@@ -12,6 +12,7 @@
 #include <random>
 #include <vector>
 
+#include "pointfair/kd_tree.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/clouds.hpp"
 
@@ -109,6 +110,41 @@ TEST(AutomaticK, SmallUnderLightNoiseLargeUnderHeavyNoise) {
   // Tiny and degenerate clouds: the smallest k.
   EXPECT_EQ(automatic_k(std::vector<Vec3>(5, Vec3::Zero())), 16);
   EXPECT_EQ(automatic_k(std::vector<Vec3>(500, Vec3(1.0, 1.0, 1.0))), 16);
+}
+
+// automatic_k's formula with each sample's probe from one k-d tree query (the reference).
+int automatic_k_through_tree(const std::vector<Vec3>& points) {
+  const std::size_t n = points.size();
+  if (n < 8) return kAutoKMin;
+  const KdTree tree(points);
+  const std::size_t stride = noise_sample_stride(n);
+  const int want = static_cast<int>(std::min<std::size_t>(kNoiseProbePoints, n));
+  std::vector<double> ratios;
+  std::vector<Index> idx(static_cast<std::size_t>(want));
+  std::vector<double> d2(static_cast<std::size_t>(want));
+  for (std::size_t s = 0; s * stride < n; ++s) {
+    const int found = tree.nearest(points[s * stride], want, std::numeric_limits<double>::infinity(), idx.data(),
+                                   d2.data());
+    std::vector<ProbePoint> probe;
+    for (int j = 0; j < found; ++j) probe.push_back({d2[static_cast<std::size_t>(j)], points[idx[static_cast<std::size_t>(j)]]});
+    ratios.push_back(noise_ratio(probe, probe.size() == n));
+  }
+  return k_for_noise_ratio(cloud_noise_ratio(ratios));
+}
+
+TEST(AutomaticK, TheSameAsThroughAKdTree) {
+  // Clouds whose k falls between the clamps (where every ratio counts), a cube with its
+  // edges, and stacks of duplicates (the probe's ties).
+  for (const double sigma : {0.6, 0.75, 0.85}) {
+    const std::vector<Vec3> plane = noisy_plane(30000, sigma, 17);
+    const int k = automatic_k(plane);
+    EXPECT_EQ(k, automatic_k_through_tree(plane)) << "sigma " << sigma;
+  }
+  const std::vector<Vec3> cube = test::noisy_cube(12000, 0.02, 43);
+  EXPECT_EQ(automatic_k(cube), automatic_k_through_tree(cube));
+  std::vector<Vec3> stacks = noisy_plane(3000, 0.8, 19);
+  for (std::size_t i = 0; i < 3000; ++i) stacks.push_back(stacks[i % 200]);
+  EXPECT_EQ(automatic_k(stacks), automatic_k_through_tree(stacks));
 }
 
 TEST(AutomaticK, SmoothUsesItUnlessKIsGivenOrThePaperIsAsked) {
