@@ -79,10 +79,10 @@ int automatic_k(std::span<const Vec3> points) {
   parallel_for(samples, [&](std::size_t begin, std::size_t end) {
     std::vector<ProbePoint> probe;
     for (std::size_t s = begin; s < end; ++s) {
-      probe.clear();
-      for (const Index j : nearest.indices_of(s)) probe.push_back({0.0, points[j]});
+      const std::span<const Index> idx = nearest.indices_of(s);
       const std::span<const double> d2 = nearest.distances2_of(s);
-      for (std::size_t j = 0; j < probe.size(); ++j) probe[j].d2 = d2[j];
+      probe.clear();
+      for (std::size_t j = 0; j < idx.size(); ++j) probe.push_back({d2[j], points[idx[j]]});
       ratios[s] = noise_ratio(probe, probe.size() == n);
     }
   }, 64);
