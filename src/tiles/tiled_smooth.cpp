@@ -282,6 +282,9 @@ class Run {
            (params_.stop_lambda_ratio > 0.0 || params_.stop_plateau > 0.0);
   }
   bool compensated() const { return params_.shrink_compensation > 0.0; }
+  // Whether `v` holds on any / on every rank (collective when there are several).
+  bool on_any_rank(bool v) const { return ranks_->size() > 1 ? ranks_->sum(v ? 1 : 0) > 0 : v; }
+  bool on_every_rank(bool v) const { return !on_any_rank(!v); }
   bool temporal_blocks() const { return options_.temporal_block > 1; }
   // Steps load a tile with the rings of its lists' closure (BlockSlot) rather than one halo:
   // temporal blocks, and compensated steps unless the positions are held in memory (then a
@@ -1129,8 +1132,7 @@ void Run::prepare_lists(OutOfCoreReport& report) {
   // The lists just written (k + 1 values a point) reach the disk here, with the rest of
   // building them, rather than with the first step's commit. A flush is collective: every
   // rank flushes if any wrote (a rank without tiles writes none).
-  if (ranks_->size() > 1) wrote = ranks_->sum(wrote ? 1 : 0) > 0;
-  if (wrote) file().flush();
+  if (on_any_rank(wrote)) file().flush();
   report.seconds_neighbors += seconds_since(t0);
 }
 
@@ -1169,13 +1171,10 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
   s.degenerate.assign(static_cast<std::size_t>(h), 0);
   s.rows.resize(rows);
   std::iota(s.rows.begin(), s.rows.end(), begin);
-  s.sorted_rows.clear();
-  s.sorted_local.clear();
   s.ring_local.reset(0);  // grows with the rings
   // A ring row found in the current level, before the ring is numbered.
   constexpr Index kNewRow = std::numeric_limits<Index>::max();
-  std::vector<std::uint64_t> level_rows, fresh, merged_rows;
-  std::vector<Index> merged_local;
+  std::vector<std::uint64_t> level_rows, fresh;
   std::vector<std::size_t> pending;  // entries of the level's lists naming a new row
   for (std::size_t l = 0; l < static_cast<std::size_t>(h); ++l) {
     const std::size_t first = l == 0 ? 0 : s.level_end[l - 1], count = s.level_end[l] - first;
@@ -1227,27 +1226,15 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
     for (std::size_t f = 0; f < fresh.size(); ++f)
       s.ring_local.set(fresh[f], static_cast<Index>(s.rows.size() + f));
     for (const std::size_t e : pending) nb.indices[e] = *s.ring_local.find(s.global[e]);
-    if (!fresh.empty()) {
-      // Merge the ring into the sorted rows.
-      merged_rows.clear();
-      merged_local.clear();
-      std::size_t a = 0;
-      for (std::size_t f = 0; f < fresh.size(); ++f) {
-        for (; a < s.sorted_rows.size() && s.sorted_rows[a] < fresh[f]; ++a) {
-          merged_rows.push_back(s.sorted_rows[a]);
-          merged_local.push_back(s.sorted_local[a]);
-        }
-        merged_rows.push_back(fresh[f]);
-        merged_local.push_back(static_cast<Index>(s.rows.size() + f));
-      }
-      merged_rows.insert(merged_rows.end(), s.sorted_rows.begin() + static_cast<std::ptrdiff_t>(a), s.sorted_rows.end());
-      merged_local.insert(merged_local.end(), s.sorted_local.begin() + static_cast<std::ptrdiff_t>(a), s.sorted_local.end());
-      s.sorted_rows.swap(merged_rows);
-      s.sorted_local.swap(merged_local);
-      s.rows.insert(s.rows.end(), fresh.begin(), fresh.end());
-    }
+    s.rows.insert(s.rows.end(), fresh.begin(), fresh.end());
     s.level_end.push_back(s.rows.size());
   }
+  // The rings' rows ascending, with their local indices, for one selected read.
+  s.sorted_local.resize(s.rows.size() - rows);
+  std::iota(s.sorted_local.begin(), s.sorted_local.end(), static_cast<Index>(rows));
+  std::sort(s.sorted_local.begin(), s.sorted_local.end(), [&](Index a, Index b) { return s.rows[a] < s.rows[b]; });
+  s.sorted_rows.resize(s.sorted_local.size());
+  for (std::size_t i = 0; i < s.sorted_local.size(); ++i) s.sorted_rows[i] = s.rows[s.sorted_local[i]];
   // Positions of step n: the tile's rows, then the rings read in ascending row order.
   s.cur.resize(s.rows.size());
   s.next.resize(s.level_end[static_cast<std::size_t>(h) - 1]);
@@ -1335,8 +1322,7 @@ void Run::hold_positions() {
   able = able && persistent_bytes() + need + slots_ * (slot_estimate_ + slot_estimate_ / 2) <= options_.memory_budget;
   // Every rank holds, or none: the steps' commit records (list order or not) and the
   // collective writes of to_row_order are shared.
-  if (ranks_->size() > 1) able = ranks_->sum(able ? 0 : 1) == 0;
-  if (!able) return;
+  if (!on_every_rank(able)) return;
   // Tile u's point at row offset r sits at slot inverse[offsets[u] - first + r] of its lists.
   std::vector<Index> inverse(my_end_row() - my_first_row());
   bool list_order = local_order_;
@@ -1348,7 +1334,7 @@ void Run::hold_positions() {
     for (std::uint64_t r = 0; r < rows; ++r)
       inverse[at + (order.empty() ? r : order[r])] = static_cast<Index>(r);
   }
-  if (ranks_->size() > 1) list_order = ranks_->sum(list_order ? 0 : 1) == 0;
+  list_order = on_every_rank(list_order);
   held_halo_.assign(tiles_.size(), {});
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     if (tiles_.rows(t) == 0) continue;
