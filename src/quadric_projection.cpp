@@ -16,13 +16,23 @@
 namespace pointfair {
 namespace {
 
-using Vec6 = Eigen::Matrix<double, 6, 1>;
-using Mat6 = Eigen::Matrix<double, 6, 6>;
+// The monomials u^(d-i) v^i of degree d = 0 .. Degree in that order: for Degree 2 the height
+// field h(u, v) = c0 + c1 u + c2 v + c3 u^2 + c4 u v + c5 v^2.
+template <int Degree>
+constexpr int kTerms = (Degree + 1) * (Degree + 2) / 2;
 
-// The monomials of the height field h(u, v) = c0 + c1 u + c2 v + c3 u^2 + c4 u v + c5 v^2.
-Vec6 monomials(double u, double v) {
-  Vec6 m;
-  m << 1.0, u, v, u * u, u * v, v * v;
+template <int Degree>
+Eigen::Matrix<double, kTerms<Degree>, 1> monomials(double u, double v) {
+  Eigen::Matrix<double, kTerms<Degree>, 1> m;
+  m[0] = 1.0;
+  int t = 1;
+  for (int d = 1; d <= Degree; ++d) {
+    // The terms of degree d from those of degree d - 1 (which start at t - d): times u, then
+    // the last one times v as well.
+    const int previous = t - d;
+    for (int i = 0; i < d; ++i) m[t++] = m[previous + i] * u;
+    m[t++] = m[previous + d - 1] * v;
+  }
   return m;
 }
 
@@ -31,6 +41,44 @@ struct Scratch {
   std::vector<double> u, v, h, weights, plane_scratch, residuals;
 };
 
+// The height of the polynomial fitted to (s.u, s.v, s.h) with the weights in s.weights
+// (reweighted in place), at u = v = 0; false when the points do not determine it.
+template <int Degree>
+bool fit_height(const QuadricProjectionParams& params, double reach, Scratch& s, double& height) {
+  constexpr int terms = kTerms<Degree>;
+  using Vec = Eigen::Matrix<double, terms, 1>;
+  using Mat = Eigen::Matrix<double, terms, terms>;
+  const std::size_t m = s.u.size();
+  Vec c = Vec::Zero();
+  bool fitted = false;
+  for (int pass = 0; pass <= params.iterations; ++pass) {
+    Mat normal_matrix = Mat::Zero();
+    Vec rhs = Vec::Zero();
+    std::size_t kept = 0;
+    for (std::size_t j = 0; j < m; ++j) {
+      const double w = s.weights[j];
+      if (w <= 0.0) continue;
+      ++kept;
+      const Vec a = monomials<Degree>(s.u[j], s.v[j]);
+      normal_matrix.template selfadjointView<Eigen::Lower>().rankUpdate(a, w);
+      rhs += w * s.h[j] * a;
+    }
+    if (kept < static_cast<std::size_t>(terms)) break;
+    normal_matrix = normal_matrix.template selfadjointView<Eigen::Lower>();
+    const Eigen::LDLT<Mat> ldlt(normal_matrix);
+    const Vec d = ldlt.vectorD().cwiseAbs();
+    if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-9 * d.maxCoeff())) break;
+    c = ldlt.solve(rhs);
+    fitted = true;
+    if (pass == params.iterations) break;
+    for (std::size_t j = 0; j < m; ++j) s.residuals[j] = std::abs(s.h[j] - monomials<Degree>(s.u[j], s.v[j]).dot(c));
+    detail::biweights(s.residuals, params.inlier_bound, 1e-12 * reach, s.weights, s.plane_scratch);
+  }
+  if (!fitted || !std::isfinite(c[0])) return false;
+  height = c[0];
+  return true;
+}
+
 }  // namespace
 
 void QuadricProjectionParams::validate() const {
@@ -38,6 +86,8 @@ void QuadricProjectionParams::validate() const {
   require(normal_neighbors >= 2, "quadric normal neighbours must be >= 2, got " + std::to_string(normal_neighbors));
   require(normal_angle > 0.0 && normal_angle <= 90.0,
           "quadric normal angle must be in (0, 90] degrees, got " + std::to_string(normal_angle));
+  require(degree == 2 || degree == 3, "quadric degree must be 2 or 3, got " + std::to_string(degree));
+  require(passes >= 1 && passes <= 10, "quadric passes must be in 1..10, got " + std::to_string(passes));
   require(iterations >= 0, "quadric iterations must be >= 0, got " + std::to_string(iterations));
   require(inlier_bound > 0.0, "quadric inlier bound must be > 0, got " + std::to_string(inlier_bound));
   frame.validate();
@@ -80,33 +130,10 @@ Vec3 project_one(const Vec3& p, std::span<const Index> neighbors, std::span<cons
     s.v[j] *= inv_reach;
   }
   s.residuals.resize(m);
-  Vec6 c = Vec6::Zero();
-  bool fitted = false;
-  for (int pass = 0; pass <= params.iterations; ++pass) {
-    Mat6 normal_matrix = Mat6::Zero();
-    Vec6 rhs = Vec6::Zero();
-    std::size_t kept = 0;
-    for (std::size_t j = 0; j < m; ++j) {
-      const double w = s.weights[j];
-      if (w <= 0.0) continue;
-      ++kept;
-      const Vec6 a = monomials(s.u[j], s.v[j]);
-      normal_matrix.selfadjointView<Eigen::Lower>().rankUpdate(a, w);
-      rhs += w * s.h[j] * a;
-    }
-    if (kept < 6) break;
-    normal_matrix = normal_matrix.selfadjointView<Eigen::Lower>();
-    const Eigen::LDLT<Mat6> ldlt(normal_matrix);
-    const Vec6 d = ldlt.vectorD().cwiseAbs();
-    if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-9 * d.maxCoeff())) break;
-    c = ldlt.solve(rhs);
-    fitted = true;
-    if (pass == params.iterations) break;
-    for (std::size_t j = 0; j < m; ++j) s.residuals[j] = std::abs(s.h[j] - monomials(s.u[j], s.v[j]).dot(c));
-    detail::biweights(s.residuals, params.inlier_bound, 1e-12 * reach, s.weights, s.plane_scratch);
-  }
-  if (!fitted || !std::isfinite(c[0])) return p;
-  return p + c[0] * n;
+  double height = 0.0;
+  const bool fitted = params.degree == 3 ? fit_height<3>(params, reach, s, height)
+                                         : fit_height<2>(params, reach, s, height);
+  return fitted ? Vec3(p + height * n) : p;
 }
 
 }  // namespace
@@ -174,11 +201,13 @@ Neighborhoods quadric_neighborhoods(std::span<const Vec3> points, const QuadricP
 
 void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params) {
   params.validate();
-  const Neighborhoods neighborhoods = quadric_neighborhoods(points, params);
-  const std::vector<Vec3> normals = neighbourhood_normals(points, neighborhoods, params);
   std::vector<Vec3> out(points.size());
-  project_to_quadrics(points, normals, neighborhoods, params, out);
-  points.swap(out);
+  for (int pass = 0; pass < params.passes; ++pass) {
+    const Neighborhoods neighborhoods = quadric_neighborhoods(points, params);
+    const std::vector<Vec3> normals = neighbourhood_normals(points, neighborhoods, params);
+    project_to_quadrics(points, normals, neighborhoods, params, out);
+    points.swap(out);
+  }
 }
 
 }  // namespace pointfair

@@ -116,6 +116,46 @@ TEST(QuadricProjection, ParallelPassEqualsThePointwiseReference) {
   EXPECT_GT(moved, p.size() * 9 / 10);
 }
 
+// A cubic height field sampled without noise: a point at the border of the samples, whose
+// neighbours all lie to one side, stays on it with a cubic fit (to 6e-7: the fit's frame is
+// the tilted plane of the neighbours, in which the surface is a cubic only to third order);
+// a quadric fit moves it off by 7e-5.
+TEST(QuadricProjection, ACubicFitFollowsACubicSurfaceToItsBorder) {
+  const auto height = [](double x, double y) { return 0.3 * x * x * x + 0.2 * x * y * y + 0.1 * x * x; };
+  std::vector<Vec3> p;
+  for (int i = 0; i <= 40; ++i)
+    for (int j = 0; j <= 40; ++j) {
+      const double x = -1.0 + i / 20.0, y = -1.0 + j / 20.0;
+      p.emplace_back(x, y, height(x, y));
+    }
+  QuadricProjectionParams params;
+  params.k = 60;
+  const Neighborhoods nb = quadric_neighborhoods(p, params);
+  const std::size_t border = 40 * 41 + 20;  // x = 1, y = 0
+  ASSERT_EQ(p[border], Vec3(1.0, 0.0, height(1.0, 0.0)));
+  params.degree = 3;
+  const Vec3 cubic = project_to_quadric(p[border], nb.of(border), p, params);
+  params.degree = 2;
+  const Vec3 quadric = project_to_quadric(p[border], nb.of(border), p, params);
+  EXPECT_LT((cubic - p[border]).norm(), 2e-6);
+  EXPECT_GT((quadric - p[border]).norm(), 3e-5);
+}
+
+// passes = 2 is the finish run twice, to the bit.
+TEST(QuadricProjection, TwoPassesAreTheFinishTwice) {
+  std::vector<Vec3> twice = sample_sphere(2000, 1.0, 3).points;
+  add_noise(twice, 0.01, 4);
+  std::vector<Vec3> once_more = twice;
+  QuadricProjectionParams params;
+  params.k = 40;
+  params.degree = 3;
+  finish_with_quadrics(once_more, params);
+  finish_with_quadrics(once_more, params);
+  params.passes = 2;
+  finish_with_quadrics(twice, params);
+  EXPECT_EQ(twice, once_more);
+}
+
 TEST(QuadricProjection, TooFewPointsStayPut) {
   std::vector<Vec3> p = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(1, 1, 0.1)};
   const std::vector<Vec3> before = p;
@@ -135,6 +175,8 @@ TEST(QuadricProjection, RefusesBadParameters) {
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.normal_angle = 91.0; })), ParamError);
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.normal_neighbors = 1; })), ParamError);
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.inlier_bound = 0.0; })), ParamError);
+  EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.degree = 4; })), ParamError);
+  EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.passes = 0; })), ParamError);
 }
 
 }  // namespace

@@ -29,6 +29,12 @@ struct QuadricProjectionParams {
   /// Tukey's bound in units of the robust scale of the fit's residuals (1.4826 times their
   /// median absolute value): neighbours farther off the quadric get weight 0.
   double inlier_bound = 3.0;
+  /// Degree of the fitted height field: 2 (a quadric, as jet fitting) or 3 (a cubic, whose
+  /// odd terms follow a neighbourhood that lies to one side of the point).
+  int degree = 2;
+  /// Passes over the cloud, each with neighbourhoods, normals and fits from the last one's
+  /// result; 1..10.
+  int passes = 1;
   /// The plane the quadric's height is measured from, and each point's normal.
   RobustFrameParams frame;
 
@@ -56,8 +62,8 @@ void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> nor
                          const Neighborhoods& neighborhoods, const QuadricProjectionParams& params,
                          std::span<Vec3> out);
 
-/// The whole pass on a cloud: quadric_neighborhoods, neighbourhood_normals and
-/// the projection of every point, in place. Throws ParamError on bad parameters.
+/// The whole finish on a cloud, params.passes times: quadric_neighborhoods,
+/// neighbourhood_normals and the projection of every point, in place. Throws ParamError on bad parameters.
 void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params);
 
 }  // namespace pointfair

@@ -118,7 +118,8 @@ int run_smooth(const Args& args) {
     j.add("neighbors_from", reference);
     JsonObject q;
     q.add("enabled", finish.quadric).add("k", finish.quadric_params.k)
-        .add("angle_degrees", finish.quadric_params.normal_angle);
+        .add("angle_degrees", finish.quadric_params.normal_angle)
+        .add("degree", finish.quadric_params.degree).add("passes", finish.quadric_params.passes);
     j.add("quadric_finish", q);
     j.add("seconds", seconds).add("point_steps_per_second", rate);
     j.add("displacement", to_json(moved)).add("degenerate_points", degenerate_final);

@@ -201,6 +201,14 @@ void add_finish_options(ArgumentParser& p, FinishOptions& f) {
           "Largest angle between a point's normal and a neighbour's that keeps the neighbour in "
           "the point's quadric fit, in (0, 90]. Default 30.",
           [&f](std::string_view v) { f.quadric_params.normal_angle = parse_double(v, "--quadric-angle"); });
+  p.value("quadric-degree", "2|3",
+          "Degree of each fitted height field: 2 (a quadric) or 3 (a cubic, which follows a "
+          "neighbourhood lying to one side of the point). Default 2.",
+          [&f](std::string_view v) { f.quadric_params.degree = parse_int(v, "--quadric-degree"); });
+  p.value("quadric-passes", "N",
+          "Passes of the finish, each with neighbourhoods, normals and fits from the last one's "
+          "result (1..10). Default 1.",
+          [&f](std::string_view v) { f.quadric_params.passes = parse_int(v, "--quadric-passes"); });
 }
 
 void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attributes_flag) {
