@@ -38,28 +38,41 @@ Eigen::Matrix<double, kTerms<Degree>, 1> monomials(double u, double v) {
 
 struct Scratch {
   std::vector<Vec3> offsets;
-  std::vector<double> u, v, h, weights, plane_scratch, residuals;
+  std::vector<double> u, v, h, weights, start_weights, plane_scratch, residuals;
 };
 
-// The height of the polynomial fitted to (s.u, s.v, s.h) with the weights in s.weights
-// (reweighted in place), at u = v = 0; false when the points do not determine it.
+double reach_of(const Scratch& s, std::size_t count) {
+  double reach = 0.0;
+  for (std::size_t j = 0; j < count; ++j) reach = std::max(reach, s.u[j] * s.u[j] + s.v[j] * s.v[j]);
+  return std::sqrt(reach);
+}
+
+// The polynomial fitted to the first `count` points of (s.u, s.v, s.h), weighted by
+// s.weights (reweighted in place): its height at u = v = 0, its second derivatives
+// (h_uu, h_uv, h_vv) when `second` is not null, and the robust scale of its residuals (1.4826
+// times their median) when `scale` is not null; false when the points do not determine it.
 template <int Degree>
-bool fit_height(const QuadricProjectionParams& params, double reach, Scratch& s, double& height) {
+bool fit_height(const QuadricProjectionParams& params, std::size_t count, Scratch& s, double& height,
+                double* second = nullptr, double* scale = nullptr) {
   constexpr int terms = kTerms<Degree>;
   using Vec = Eigen::Matrix<double, terms, 1>;
   using Mat = Eigen::Matrix<double, terms, terms>;
-  const std::size_t m = s.u.size();
+  const double reach = reach_of(s, count);
+  if (!(reach > 0.0)) return false;
+  // Tangent coordinates in units of the fit's reach keep the normal equations well
+  // conditioned; the constant term, the height above p, is unchanged by that.
+  const double inv_reach = 1.0 / reach;
   Vec c = Vec::Zero();
   bool fitted = false;
   for (int pass = 0; pass <= params.iterations; ++pass) {
     Mat normal_matrix = Mat::Zero();
     Vec rhs = Vec::Zero();
     std::size_t kept = 0;
-    for (std::size_t j = 0; j < m; ++j) {
+    for (std::size_t j = 0; j < count; ++j) {
       const double w = s.weights[j];
       if (w <= 0.0) continue;
       ++kept;
-      const Vec a = monomials<Degree>(s.u[j], s.v[j]);
+      const Vec a = monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach);
       normal_matrix.template selfadjointView<Eigen::Lower>().rankUpdate(a, w);
       rhs += w * s.h[j] * a;
     }
@@ -71,11 +84,27 @@ bool fit_height(const QuadricProjectionParams& params, double reach, Scratch& s,
     c = ldlt.solve(rhs);
     fitted = true;
     if (pass == params.iterations) break;
-    for (std::size_t j = 0; j < m; ++j) s.residuals[j] = std::abs(s.h[j] - monomials<Degree>(s.u[j], s.v[j]).dot(c));
-    detail::biweights(s.residuals, params.inlier_bound, 1e-12 * reach, s.weights, s.plane_scratch);
+    for (std::size_t j = 0; j < count; ++j)
+      s.residuals[j] = std::abs(s.h[j] - monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach).dot(c));
+    const std::span<double> w(s.weights.data(), count), scratch(s.plane_scratch.data(), count);
+    detail::biweights(std::span<const double>(s.residuals.data(), count), params.inlier_bound, 1e-12 * reach, w,
+                      scratch);
   }
   if (!fitted || !std::isfinite(c[0])) return false;
   height = c[0];
+  if (scale != nullptr) {
+    for (std::size_t j = 0; j < count; ++j)
+      s.plane_scratch[j] = std::abs(s.h[j] - monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach).dot(c));
+    const auto mid = s.plane_scratch.begin() + static_cast<std::ptrdiff_t>(count / 2);
+    std::nth_element(s.plane_scratch.begin(), mid, s.plane_scratch.begin() + static_cast<std::ptrdiff_t>(count));
+    *scale = 1.4826 * *mid;
+  }
+  if (second != nullptr) {
+    const double per_reach2 = inv_reach * inv_reach;
+    second[0] = 2.0 * c[3] * per_reach2;
+    second[1] = c[4] * per_reach2;
+    second[2] = 2.0 * c[5] * per_reach2;
+  }
   return true;
 }
 
@@ -87,6 +116,9 @@ void QuadricProjectionParams::validate() const {
   require(normal_angle > 0.0 && normal_angle <= 90.0,
           "quadric normal angle must be in (0, 90] degrees, got " + std::to_string(normal_angle));
   require(degree == 2 || degree == 3, "quadric degree must be 2 or 3, got " + std::to_string(degree));
+  require(curvature_reach >= 0.0 && std::isfinite(curvature_reach),
+          "quadric curvature reach must be >= 0, got " + std::to_string(curvature_reach));
+  require(min_k >= 10, "quadric min k must be >= 10, got " + std::to_string(min_k));
   require(passes >= 1 && passes <= 10, "quadric passes must be in 1..10, got " + std::to_string(passes));
   require(iterations >= 0, "quadric iterations must be >= 0, got " + std::to_string(iterations));
   require(inlier_bound > 0.0, "quadric inlier bound must be > 0, got " + std::to_string(inlier_bound));
@@ -112,28 +144,39 @@ Vec3 project_one(const Vec3& p, std::span<const Index> neighbors, std::span<cons
   s.v.resize(m);
   s.h.resize(m);
   s.u[0] = s.v[0] = s.h[0] = 0.0;
-  double reach = 0.0;
   for (std::size_t j = 1; j < m; ++j) {
     const Vec3& d = s.offsets[j - 1];
     s.u[j] = d.dot(t1);
     s.v[j] = d.dot(t2);
     s.h[j] = d.dot(n);
-    reach = std::max(reach, s.u[j] * s.u[j] + s.v[j] * s.v[j]);
-  }
-  reach = std::sqrt(reach);
-  if (!(reach > 0.0)) return p;
-  // Tangent coordinates in units of the neighbourhood's reach keep the normal equations
-  // well conditioned; the constant term, the height above p, is unchanged by that.
-  const double inv_reach = 1.0 / reach;
-  for (std::size_t j = 0; j < m; ++j) {
-    s.u[j] *= inv_reach;
-    s.v[j] *= inv_reach;
   }
   s.residuals.resize(m);
-  double height = 0.0;
-  const bool fitted = params.degree == 3 ? fit_height<3>(params, reach, s, height)
-                                         : fit_height<2>(params, reach, s, height);
-  return fitted ? Vec3(p + height * n) : p;
+  std::size_t count = m;
+  if (params.curvature_reach > 0.0 && m > static_cast<std::size_t>(params.min_k) + 1) {
+    // A pilot quadric over the nearest min_k neighbours gives the largest principal
+    // curvature; the fit then takes the neighbours within curvature_reach / kappa.
+    const std::size_t pilot = static_cast<std::size_t>(params.min_k) + 1;
+    s.start_weights.assign(s.weights.begin(), s.weights.begin() + static_cast<std::ptrdiff_t>(pilot));
+    double pilot_height = 0.0, second[3];
+    if (fit_height<2>(params, pilot, s, pilot_height, second)) {
+      const double mean = 0.5 * (second[0] + second[2]);
+      const double diff = 0.5 * (second[0] - second[2]);
+      const double kappa = std::abs(mean) + std::sqrt(diff * diff + second[1] * second[1]);
+      const double radius = params.curvature_reach / std::max(kappa, 1e-300);
+      count = pilot;
+      while (count < m && s.u[count] * s.u[count] + s.v[count] * s.v[count] + s.h[count] * s.h[count] <= radius * radius)
+        ++count;
+    }
+    std::copy(s.start_weights.begin(), s.start_weights.end(), s.weights.begin());
+  }
+  // A fit that puts p farther off than the Tukey bound of its own residuals extrapolates (a
+  // neighbourhood to one side, a hole's border): the move is clamped to that bound.
+  double height = 0.0, scale = 0.0;
+  const bool fitted = params.degree == 3 ? fit_height<3>(params, count, s, height, nullptr, &scale)
+                                         : fit_height<2>(params, count, s, height, nullptr, &scale);
+  if (!fitted) return p;
+  const double bound = params.inlier_bound * std::max(scale, 1e-12 * reach_of(s, count));
+  return p + std::clamp(height, -bound, bound) * n;
 }
 
 }  // namespace

@@ -156,6 +156,63 @@ TEST(QuadricProjection, TwoPassesAreTheFinishTwice) {
   EXPECT_EQ(twice, once_more);
 }
 
+// A narrow bump on a plane: 200-point fits flatten it; fits bounded by the pilot curvature
+// (curvature_reach) follow it, and stay as wide as before on the flat part.
+TEST(QuadricProjection, CurvatureReachKeepsFineDetail) {
+  const double amplitude = 0.05, width = 0.08;
+  const auto bump = [&](double x, double y) { return amplitude * std::exp(-(x * x + y * y) / (2 * width * width)); };
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  std::vector<Vec3> noisy;
+  for (int i = 0; i < 100; ++i)
+    for (int j = 0; j < 100; ++j) {
+      const double x = -1.0 + 0.02 * i, y = -1.0 + 0.02 * j;
+      noisy.emplace_back(x, y, bump(x, y) + noise(rng));
+    }
+  QuadricProjectionParams params;
+  params.k = 200;
+  params.degree = 3;
+  const auto rms = [&](const std::vector<Vec3>& p, bool near_bump) {
+    double sum = 0.0;
+    std::size_t count = 0;
+    for (const Vec3& x : p) {
+      const double r = std::hypot(x.x(), x.y());
+      if ((r < 0.15) != near_bump || std::max(std::abs(x.x()), std::abs(x.y())) > 0.7) continue;
+      sum += (x.z() - bump(x.x(), x.y())) * (x.z() - bump(x.x(), x.y()));
+      ++count;
+    }
+    return std::sqrt(sum / static_cast<double>(count));
+  };
+  std::vector<Vec3> wide = noisy, bounded = noisy;
+  finish_with_quadrics(wide, params);
+  params.curvature_reach = 0.7;
+  finish_with_quadrics(bounded, params);
+  EXPECT_LT(rms(bounded, true), 0.7 * rms(wide, true)) << "bounded " << rms(bounded, true) << ", wide " << rms(wide, true);
+  EXPECT_LT(rms(bounded, false), 1.1 * rms(wide, false)) << "flat part: bounded " << rms(bounded, false) << ", wide "
+                                                         << rms(wide, false);
+  EXPECT_LT(rms(bounded, false), 0.4 * 0.002);
+}
+
+// A point far off a noisy plane moves toward it by at most inlier_bound times the robust scale
+// of the fit's residuals (a fit that throws p far is more likely extrapolating than right).
+TEST(QuadricProjection, TheMoveIsBoundedByTheResidualScale) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.001);
+  std::vector<Vec3> p;
+  for (int i = 0; i < 30; ++i)
+    for (int j = 0; j < 30; ++j) p.emplace_back(0.02 * i, 0.02 * j, noise(rng));
+  const std::size_t far = 15 * 30 + 15;
+  p[far].z() = 0.05;
+  QuadricProjectionParams params;
+  params.k = 100;
+  const Neighborhoods nb = quadric_neighborhoods(p, params);
+  const Vec3 moved = project_to_quadric(p[far], nb.of(far), p, params);
+  const double step = p[far].z() - moved.z();
+  EXPECT_GT(step, 2.0 * 0.001);                       // toward the plane, by about 3 sigma
+  EXPECT_LT(step, 3.0 * 1.4826 * 0.001 * 1.5);        // not onto it
+  EXPECT_NEAR(moved.x(), p[far].x(), 1e-3);
+}
+
 TEST(QuadricProjection, TooFewPointsStayPut) {
   std::vector<Vec3> p = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(1, 1, 0.1)};
   const std::vector<Vec3> before = p;
@@ -177,6 +234,8 @@ TEST(QuadricProjection, RefusesBadParameters) {
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.inlier_bound = 0.0; })), ParamError);
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.degree = 4; })), ParamError);
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.passes = 0; })), ParamError);
+  EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.curvature_reach = -1.0; })), ParamError);
+  EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.min_k = 9; })), ParamError);
 }
 
 }  // namespace

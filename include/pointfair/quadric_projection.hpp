@@ -32,6 +32,12 @@ struct QuadricProjectionParams {
   /// Degree of the fitted height field: 2 (a quadric, as jet fitting) or 3 (a cubic, whose
   /// odd terms follow a neighbourhood that lies to one side of the point).
   int degree = 2;
+  /// > 0: each fit takes only the neighbours within curvature_reach / kappa of the point,
+  /// kappa the largest principal curvature of a pilot quadric over its min_k nearest (at
+  /// least those min_k): wide fits where the surface is flat, narrow ones on fine detail.
+  /// 0: all k.
+  double curvature_reach = 0.0;
+  int min_k = 40;
   /// Passes over the cloud, each with neighbourhoods, normals and fits from the last one's
   /// result; 1..10.
   int passes = 1;

@@ -209,6 +209,16 @@ void add_finish_options(ArgumentParser& p, FinishOptions& f) {
           "Passes of the finish, each with neighbourhoods, normals and fits from the last one's "
           "result (1..10). Default 1.",
           [&f](std::string_view v) { f.quadric_params.passes = parse_int(v, "--quadric-passes"); });
+  p.value("quadric-curvature-reach", "C",
+          "Fit each quadric only to the neighbours within C / kappa of the point, kappa the "
+          "largest principal curvature of a pilot quadric over its --quadric-min-k nearest: "
+          "narrow fits on fine detail, wide ones where the surface is flat. 0: all --quadric-k. "
+          "Default 0.",
+          [&f](std::string_view v) {
+            f.quadric_params.curvature_reach = parse_double(v, "--quadric-curvature-reach");
+          });
+  p.value("quadric-min-k", "N", "Neighbours of the pilot quadric of --quadric-curvature-reach (>= 10). Default 40.",
+          [&f](std::string_view v) { f.quadric_params.min_k = parse_int(v, "--quadric-min-k"); });
 }
 
 void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attributes_flag) {
