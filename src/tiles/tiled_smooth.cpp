@@ -18,6 +18,7 @@
 #include "pointfair/neighborhood_size.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
+#include "pointfair/quadric_projection.hpp"
 #include "pointfair/shrink_compensation.hpp"
 #include "pointfair/spatial_order.hpp"
 #include "pointfair/io/atomic_file.hpp"
@@ -48,6 +49,10 @@ double seconds_since(Clock::time_point t0) {
 // see Run::to_row_order); a step or temporal block writes into the other buffer.
 // kNeighborsStep: the step whose positions the stored neighbour lists were built from (0: the
 // input or the reference; a rebuild at step s overwrites them in place and records s).
+// kFinishPasses: quadric finish passes done (OutOfCoreOptions::quadric_finish); a pass writes
+// the other buffer like a step, and kStepBuffer then names the pass's result. Only runs with
+// the finish have that slot: the others keep the record of kLegacyStateSize slots that runs
+// started before the finish existed have.
 enum StateSlot {
   kSetupDone = 0,
   kNeighborsDone = 1,
@@ -55,8 +60,10 @@ enum StateSlot {
   kFinished = 3,
   kNeighborsStep = 4,
   kStepBuffer = 5,
-  kStateSize = 6
+  kFinishPasses = 6,
+  kStateSize = 7
 };
+constexpr std::size_t kLegacyStateSize = 6;
 
 // Rows read at a time when filtering whole tiles for halos.
 constexpr std::uint64_t kScanBlock = 1u << 15;
@@ -68,6 +75,9 @@ constexpr const char* kReferencePositions = "/run/reference_positions";
 // Per row of /run/neighbors/local: which tile row the list belongs to (see TileNeighbors).
 // Absent from runs started by an older version: their lists stay in row order.
 constexpr const char* kLocalOrder = "/run/neighbors/local_order";
+// The lambda of an automatic stop (smooth()'s, measured on the final step's positions), kept
+// with the first finish pass: a resumed finish no longer has those positions to measure.
+constexpr const char* kStopLambda = "/run/finish_stop_lambda";
 
 std::string positions_buffer(int parity) { return "/run/positions_" + std::to_string(parity); }
 
@@ -92,6 +102,18 @@ std::string parameters_key(const SmoothParams& p) {
   // Named only when on, so that runs started before these options existed still resume.
   if (p.stop_plateau != 0.0) s << " stop_plateau=" << p.stop_plateau;
   if (p.shrink_compensation != 0.0) s << " shrink_compensation=" << p.shrink_compensation;
+  return s.str();
+}
+
+// Every parameter of the quadric finish, for the same line.
+std::string finish_key(const QuadricProjectionParams& q) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "quadric_k=" << q.k << " quadric_normal_neighbors=" << q.normal_neighbors
+    << " quadric_angle=" << q.normal_angle << " quadric_iterations=" << q.iterations
+    << " quadric_bound=" << q.inlier_bound << " quadric_degree=" << q.degree << " quadric_passes=" << q.passes
+    << " quadric_frame_seed=" << q.frame.seed_neighbors << " quadric_frame_iterations=" << q.frame.iterations
+    << " quadric_frame_bound=" << q.frame.inlier_bound;
   return s.str();
 }
 
@@ -243,6 +265,7 @@ class Run {
   template <class Measure>
   void for_each_sample_knn(std::uint64_t stride, int want, const char* stage, Measure&& measure);
   double first_halo(std::size_t t) const;
+  double knn_first_halo(std::size_t t, int neighbors) const;
   bool covers_all(std::size_t t, double halo) const;
   LocalSet gather_local(std::size_t t, double halo) const;
   void prepare_lambda_sample();
@@ -260,6 +283,10 @@ class Run {
   // Tile t's halo in a buffer laid out as held_, from the tiles holding its points.
   void copy_halo(std::vector<Vec3>& buffer, std::size_t t) const;
   void release_positions();
+  bool run_finish(OutOfCoreReport& report);
+  std::optional<Neighborhoods> finish_lists(std::size_t t, double halo, const LocalSet& local,
+                                            const QuadricProjectionParams& q) const;
+  void finish_tile(std::size_t t, const QuadricProjectionParams& q, std::vector<Vec3>& result);
   std::size_t write_attributes(double lambda);
   void finish(std::size_t attributes_degenerate, double lambda);
   void account(std::uint64_t working);
@@ -323,6 +350,8 @@ class Run {
   // The lambda that stopped the run (measured on its final positions), as smooth() reports it.
   double stop_lambda_ = 0.0;
   std::vector<std::int64_t> state_ = std::vector<std::int64_t>(kStateSize, 0);
+  // Slots of the run file's state record (kLegacyStateSize in runs without the finish).
+  std::size_t state_rows_ = kStateSize;
   double eps_ = 0.0;
   // The positions neighbourhoods are built from (the input's, the reference's or the current
   // step's), and the bounds of every tile's points in it (the tile table's for the input).
@@ -404,7 +433,7 @@ void Run::commit_state() {
   // created, so the write changes no metadata).
   file().flush();
   if (shared_) ranks_->barrier();
-  if (ranks_->rank() == 0) file().dataset(layout::run_state).write_rows(0, kStateSize, state_.data());
+  if (ranks_->rank() == 0) file().dataset(layout::run_state).write_rows(0, state_rows_, state_.data());
   file().flush();
 }
 
@@ -415,6 +444,8 @@ void Run::share() {
     ranks_->barrier();
     file_.emplace(ranks_->open_shared(partial_name(output_)));
     state_ = file().dataset(layout::run_state).read_all<std::int64_t>();
+    state_rows_ = state_.size();
+    state_.resize(kStateSize, 0);
   }
   shared_ = true;
 }
@@ -467,8 +498,9 @@ void Run::create(const fs::path& partial) {
   f.create_group(layout::run);
   h5::DatasetOptions early;
   early.allocate_early = true;
-  f.create_dataset(layout::run_state, h5::Type::Int64, kStateSize, 0, early)
-      .write_rows(0, kStateSize, state_.data());
+  state_rows_ = options_.quadric_finish ? std::size_t{kStateSize} : kLegacyStateSize;
+  f.create_dataset(layout::run_state, h5::Type::Int64, state_rows_, 0, early)
+      .write_rows(0, state_rows_, state_.data());
   for (const char* name : {"pointfair_format", "source_name"})
     f.set_attribute("/", name, in.string_attribute("/", name));
   for (const char* name : {"format_version", "source_size_bytes", "point_count", "tile_count"})
@@ -531,6 +563,14 @@ void Run::create(const fs::path& partial) {
       f.create_dataset(a + "/" + name, h5::Type::Float64, n_, 0, rows);
     f.create_dataset(a + "/feature_class", h5::Type::UInt8, n_, 0, rows);
   }
+  if (options_.quadric_finish) {
+    f.create_dataset(kStopLambda, h5::Type::Float64, 1, 0, early);
+    const QuadricProjectionParams& q = *options_.quadric_finish;
+    f.set_attribute(layout::run, "quadric_k", static_cast<std::int64_t>(q.k));
+    f.set_attribute(layout::run, "quadric_angle", q.normal_angle);
+    f.set_attribute(layout::run, "quadric_degree", static_cast<std::int64_t>(q.degree));
+    f.set_attribute(layout::run, "quadric_passes", static_cast<std::int64_t>(q.passes));
+  }
   state_.assign(kStateSize, 0);
   state_[kSetupDone] = 1;
   commit_state();
@@ -567,8 +607,10 @@ void Run::open_or_create() {
       file_.emplace(h5::File::open(partial, true));
       if (file().exists(layout::run_state)) {
         const auto st = file().dataset(layout::run_state).read_all<std::int64_t>();
-        if (st.size() == kStateSize && st[kSetupDone] == 1) {
+        if ((st.size() == kStateSize || st.size() == kLegacyStateSize) && st[kSetupDone] == 1) {
           state_ = st;
+          state_rows_ = st.size();
+          state_.resize(kStateSize, 0);
           usable = true;
         }
       }
@@ -601,6 +643,10 @@ bool Run::covers_all(std::size_t t, double halo) const {
 
 double Run::first_halo(std::size_t t) const {
   if (std::isfinite(eps_) && eps_ > 0.0) return eps_ * (1.0 + 1e-6);
+  return knn_first_halo(t, k());
+}
+
+double Run::knn_first_halo(std::size_t t, int neighbors) const {
   // Unbounded eps: start from the spacing a surface patch of the tile's size would have,
   // and grow until every (k+1)-th neighbour lies inside the halo.
   const Box& b = tiles_.bounds[t];
@@ -608,7 +654,7 @@ double Run::first_halo(std::size_t t) const {
   const double diag = std::hypot(global_bounds_[3] - global_bounds_[0], global_bounds_[4] - global_bounds_[1],
                                  global_bounds_[5] - global_bounds_[2]);
   const double rows = static_cast<double>(std::max<std::uint64_t>(1, tiles_.rows(t)));
-  return std::max(2.0 * side * std::sqrt((k() + 1.0) / rows), 1e-12 * (1.0 + diag));
+  return std::max(2.0 * side * std::sqrt((neighbors + 1.0) / rows), 1e-12 * (1.0 + diag));
 }
 
 LocalSet Run::gather_local(std::size_t t, double halo) const {
@@ -822,6 +868,8 @@ void Run::build_neighbors(int step) {
 
 std::string Run::key() const {
   std::string k = parameters_key(params_);
+  // Named only when on, so that runs without it started before it existed still resume.
+  if (options_.quadric_finish) k += " " + finish_key(*options_.quadric_finish);
   if (!options_.neighbor_reference.empty()) {
     std::error_code ec;
     const auto size = fs::file_size(options_.neighbor_reference, ec);
@@ -1445,6 +1493,17 @@ bool Run::run_steps(OutOfCoreReport& report) {
   to_row_order();
   const int start = static_cast<int>(state_[kCompletedSteps]);
   report.resumed_from = start;
+  cache_.assign(tiles_.size(), {});
+  local_written_.assign(tiles_.size(), 0);
+  halo_rows_.assign(tiles_.size(), {});
+  local_order_ = file().exists(kLocalOrder);
+  if (state_[kFinishPasses] > 0) {
+    // The finish has begun: the steps ended at `start` (stopped early, or all done), on
+    // positions a pass may have overwritten since; the stop's lambda was kept with the first.
+    final_steps_ = start;
+    if (start < params_.steps) file().dataset(kStopLambda).read_rows(0, 1, &stop_lambda_);
+    return true;
+  }
   const bool every_step = auto_lambda_on() && params_.lambda_every_step;
   double lambda = params_.flow.lambda;
   // The step whose positions the lists in force were built from (a rebuild at `start` itself
@@ -1463,10 +1522,6 @@ bool Run::run_steps(OutOfCoreReport& report) {
     }
   }
   if (every_step) load_sample_positions(file().dataset(current_source()));
-  cache_.assign(tiles_.size(), {});
-  local_written_.assign(tiles_.size(), 0);
-  halo_rows_.assign(tiles_.size(), {});
-  local_order_ = file().exists(kLocalOrder);
   std::vector<Index> identity(max_tile_rows_);
   std::iota(identity.begin(), identity.end(), Index{0});
   h5::Dataset log = file().dataset(layout::run_step_log);
@@ -1803,6 +1858,141 @@ bool Run::run_steps(OutOfCoreReport& report) {
   return true;
 }
 
+// ---- the quadric finish -------------------------------------------------------------------------
+
+std::optional<Neighborhoods> Run::finish_lists(std::size_t t, double halo, const LocalSet& local,
+                                               const QuadricProjectionParams& q) const {
+  // finish_with_quadrics's lists on the tile's gathered points (sorted by original index: the
+  // canonical tie rule): each tile point's row holds its q.k nearest; the row of each halo
+  // point those rows name holds its first q.normal_neighbors of them (all its normal reads);
+  // the other rows are empty. Empty (the halo must grow) unless every such row is certain to
+  // be the in-core one: its farthest entry lies inside what was gathered.
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const std::size_t n = local.positions.size(), kk = static_cast<std::size_t>(q.k);
+  const bool all = covers_all(t, halo);
+  const Neighborhoods own = build_neighborhoods(local.positions, local.queries, q.k, inf);
+  std::vector<char> in_tile(n, 0), named(n, 0);
+  for (const Index i : local.queries) in_tile[i] = 1;
+  for (std::size_t r = 0; r < own.size(); ++r) {
+    const std::span<const Index> row = own.of(r);
+    if (!all && (row.size() < kk || !((local.positions[row.back()] - local.positions[local.queries[r]]).norm() <
+                                       halo * (1.0 - kHaloMargin))))
+      return std::nullopt;
+    for (const Index j : row) named[j] = !in_tile[j];
+  }
+  std::vector<Index> halo_queries;
+  for (std::size_t i = 0; i < n; ++i)
+    if (named[i]) halo_queries.push_back(static_cast<Index>(i));
+  // A prefix of the canonical order is the canonical order of fewer neighbours.
+  const int m = std::min(q.k, q.normal_neighbors);
+  const Neighborhoods near = build_neighborhoods(local.positions, halo_queries, m, inf);
+  if (!all) {
+    // A halo point's ball lies inside the box around the tile that was gathered.
+    const Box& b = tiles_.bounds[t];
+    for (std::size_t r = 0; r < near.size(); ++r) {
+      const std::span<const Index> row = near.of(r);
+      if (row.size() < static_cast<std::size_t>(m)) return std::nullopt;
+      const Vec3& p = local.positions[halo_queries[r]];
+      const double reach = (local.positions[row.back()] - p).norm() + halo * kHaloMargin;
+      for (Eigen::Index c = 0; c < 3; ++c) {
+        const std::size_t lo = static_cast<std::size_t>(c), hi = lo + 3;
+        if (!(p[c] - reach > b[lo] - halo && p[c] + reach < b[hi] + halo)) return std::nullopt;
+      }
+    }
+  }
+  Neighborhoods lists;
+  lists.stride = q.k;
+  lists.eps = inf;
+  lists.counts.assign(n, 0);
+  lists.indices.assign(n * kk, 0);
+  const auto put = [&](const Neighborhoods& from, std::size_t r, Index i) {
+    const std::span<const Index> row = from.of(r);
+    std::copy(row.begin(), row.end(), lists.indices.begin() + static_cast<std::ptrdiff_t>(i * kk));
+    lists.counts[i] = static_cast<std::uint16_t>(row.size());
+  };
+  for (std::size_t r = 0; r < own.size(); ++r) put(own, r, local.queries[r]);
+  for (std::size_t r = 0; r < near.size(); ++r) put(near, r, halo_queries[r]);
+  return lists;
+}
+
+void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::vector<Vec3>& result) {
+  // One pass of finish_with_quadrics for tile t's points, from the positions in
+  // neighbor_source_: into `result`, in row order.
+  for (double halo = knn_first_halo(t, q.k);; halo *= 2.0) {
+    const LocalSet local = gather_local(t, halo);
+    std::optional<Neighborhoods> lists = finish_lists(t, halo, local, q);
+    // The cell grids held about 48 bytes a point while they searched.
+    const std::uint64_t searched = local.bytes() + local.positions.size() * 50;
+    if (!lists) {
+      account(searched);
+      continue;
+    }
+    const std::vector<Vec3> normals = neighbourhood_normals(local.positions, *lists, q);
+    // Only the tile's points are projected: with its row emptied, a halo point is left where
+    // it is (fewer than six points fit no quadric).
+    std::vector<std::uint16_t> tile_counts(local.queries.size());
+    for (std::size_t r = 0; r < tile_counts.size(); ++r) tile_counts[r] = lists->counts[local.queries[r]];
+    std::fill(lists->counts.begin(), lists->counts.end(), std::uint16_t{0});
+    for (std::size_t r = 0; r < tile_counts.size(); ++r) lists->counts[local.queries[r]] = tile_counts[r];
+    std::vector<Vec3> out(local.positions.size());
+    project_to_quadrics(local.positions, normals, *lists, q, out);
+    result.resize(local.queries.size());
+    for (std::size_t r = 0; r < result.size(); ++r) result[r] = out[local.queries[r]];
+    largest_local_ = std::max<std::uint64_t>(largest_local_, local.positions.size());
+    // The lists of the tile's and of the halo's points were built apart, then copied in; then
+    // the normals and the projections came next to them.
+    const std::uint64_t list_bytes = bytes(lists->indices) + bytes(lists->counts);
+    account(searched + list_bytes +
+            std::max(list_bytes, bytes(normals) + bytes(out) + bytes(result) + bytes(tile_counts)));
+    return;
+  }
+}
+
+bool Run::run_finish(OutOfCoreReport& report) {
+  // The passes of finish_with_quadrics after the last step, each from the last one's
+  // positions into the other buffer and committed like a step. False when stopped
+  // (OutOfCoreOptions::stop_after_finish_passes).
+  if (!options_.quadric_finish) return true;
+  const QuadricProjectionParams& q = *options_.quadric_finish;
+  int pass = static_cast<int>(state_[kFinishPasses]);
+  report.finish_passes = pass;
+  if (pass >= q.passes) return true;
+  const auto t0 = Clock::now();
+  // The flow's lists stay on file for the attributes; their memory goes to the wider halos.
+  cache_.assign(tiles_.size(), {});
+  cache_bytes_ = 0;
+  const std::uint64_t writes = tiles_to_write();
+  std::vector<Vec3> result;
+  int passes_here = 0;
+  for (; pass < q.passes; ++pass) {
+    if (pass == 0 && ranks_->rank() == 0) file().dataset(kStopLambda).write_rows(0, 1, &stop_lambda_);
+    // The halos are found around the tiles' bounds in the positions the pass starts from.
+    neighbor_source_ = current_source();
+    measure_bounds();
+    h5::Dataset target = file().dataset(positions_buffer(target_buffer()));
+    for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+      const std::uint64_t rows = tiles_.rows(t);
+      if (rows == 0) continue;
+      finish_tile(t, q, result);
+      target.write_rows(tiles_.offsets[t], rows, result.data()->data(), h5::Transfer::Collective);
+      progress("finish", t + 1 - first_tile_, end_tile_ - first_tile_);
+    }
+    // Collective writes: as many per rank as the rank with the most tiles.
+    for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
+    state_[kStepBuffer] = target_code(false);
+    state_[kFinishPasses] = pass + 1;
+    commit_state();
+    report.finish_passes = pass + 1;
+    ++passes_here;
+    if (options_.stop_after_finish_passes >= 0 && passes_here >= options_.stop_after_finish_passes) {
+      report.seconds_finish += seconds_since(t0);
+      return false;
+    }
+  }
+  report.seconds_finish += seconds_since(t0);
+  return true;
+}
+
 // ---- attributes and the end ---------------------------------------------------------------------
 
 std::size_t Run::write_attributes(double lambda) {
@@ -1905,6 +2095,7 @@ void Run::finish(std::size_t attributes_degenerate, double lambda) {
 
 OutOfCoreReport Run::run() {
   params_.validate();
+  if (options_.quadric_finish) options_.quadric_finish->validate();
   require(options_.memory_budget > 0, "the memory budget must be positive");
   require(options_.temporal_block >= 1, "the temporal block must be at least 1 step");
   require(options_.temporal_block == 1 || !(auto_lambda_on() && params_.lambda_every_step),
@@ -1947,8 +2138,9 @@ OutOfCoreReport Run::run() {
   report.steps = static_cast<int>(state_[kCompletedSteps]);
   const bool steps_done = run_steps(report);
   report.positions_held = holding_;
-  release_positions();  // the attributes need the room
-  if (!steps_done) {
+  release_positions();  // the finish and the attributes need the room
+  const bool finish_done = steps_done && run_finish(report);
+  if (!finish_done) {
     report.neighbors_cached = caching_;
     report.tiles_in_flight = static_cast<int>(std::max(slots_, most_in_flight_));
     report.peak_accounted_bytes = peak_;

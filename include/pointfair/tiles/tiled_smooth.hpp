@@ -20,14 +20,22 @@
 // - the automatic stops (stop_lambda_ratio, stop_plateau) see the lambda of every step so
 //   far; a resumed run reads those of the steps before it from the run's step log.
 //
+// - the quadric finish (quadric_projection.hpp), after the last step, pass by pass: each
+//   tile gathers the pass's positions of its points and of a halo grown until it holds every
+//   point's k nearest, and the normal_neighbors nearest of every halo point in those lists
+//   (whose normals decide which neighbours a fit keeps); the tile's points are projected as
+//   in core and each pass is committed like a step.
+//
 // Each step is a bounded pipeline (pipeline.hpp): tile i+1 and its halo are read while tile
 // i is computed (parallel_for) and tile i-1 written; every HDF5 call stays on the calling
 // thread, and the buffers of the tiles in flight count in the memory budget.
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 
+#include "pointfair/quadric_projection.hpp"
 #include "pointfair/smooth.hpp"
 
 namespace pointfair::tiles {
@@ -59,9 +67,16 @@ struct OutOfCoreOptions {
   /// original order. Its positions are copied into the run in row order, in passes over
   /// blocks of an eighth of the budget (each reads the reference again). Empty: the input.
   std::filesystem::path neighbor_reference;
+  /// The quadric finish after the last step (finish_with_quadrics, same bits), before the
+  /// attributes, which are computed on its result with the flow's last lists as in core.
+  /// Empty: none.
+  std::optional<QuadricProjectionParams> quadric_finish;
   /// Stop (as if killed) after this many steps committed by this call; < 0: never. For tests.
   int stop_after_steps = -1;
-  /// Called with a phase name ("eps", "neighbors", "step", "attributes") and progress (of this
+  /// Stop (as if killed) after this many finish passes committed by this call; < 0: never.
+  /// For tests.
+  int stop_after_finish_passes = -1;
+  /// Called with a phase name ("eps", "neighbors", "step", "finish", "attributes") and progress (of this
   /// rank's tiles in the per-tile phases).
   std::function<void(const std::string&, std::uint64_t, std::uint64_t)> progress;
   /// The processes sharing the run (ranks.hpp), each calling smooth_out_of_core with the same
@@ -106,8 +121,11 @@ struct OutOfCoreReport {
   std::uint64_t list_rows_read = 0;
   /// Neighbourhood rebuilds done by this call (SmoothParams::rebuild_interval).
   int rebuilds = 0;
+  /// Quadric finish passes done in total (OutOfCoreOptions::quadric_finish).
+  int finish_passes = 0;
   double seconds_neighbors = 0.0;
   double seconds_steps = 0.0;
+  double seconds_finish = 0.0;
   double seconds_attributes = 0.0;
 };
 

@@ -1,0 +1,204 @@
+// The quadric finish out of core (OutOfCoreOptions::quadric_finish): bit-identical to smooth()
+// + finish_with_quadrics + compute_attributes in memory, for tiles of a handful of points,
+// empty tiles, one or two threads; stopped during or after the finish and resumed, the same
+// bits; a resume with other finish parameters is refused.
+#include <filesystem>
+#include <vector>
+
+#include "pointfair/parallel.hpp"
+#include "pointfair/params_error.hpp"
+#include "pointfair/quadric_projection.hpp"
+#include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/tiled_smooth.hpp"
+#include "tiles_test_util.hpp"
+
+using namespace pointfair;
+using namespace pointfair::tiles;
+
+namespace {
+
+QuadricProjectionParams finish_params(int passes, int degree) {
+  QuadricProjectionParams q;
+  q.k = 30;
+  q.passes = passes;
+  q.degree = degree;
+  return q;
+}
+
+// The in-core command: the flow, the finish on its result, the attributes of the finished
+// positions over the flow's last lists with its last lambda.
+test::InCore finished_in_core(const io::PointTable& table, const SmoothParams& params,
+                              const QuadricProjectionParams& q) {
+  test::InCore r;
+  r.positions = table.positions;
+  r.report = smooth(r.positions, params);
+  finish_with_quadrics(r.positions, q);
+  r.attributes = compute_attributes(r.positions, r.report.neighborhoods, params.flow, r.report.lambda);
+  return r;
+}
+
+SmoothParams few_steps(int steps) {
+  SmoothParams p;
+  p.steps = steps;
+  return p;
+}
+
+class TiledFinishTest : public test::TempDirTest {
+ protected:
+  void TearDown() override {
+    set_thread_count(0);
+    TempDirTest::TearDown();
+  }
+  OutOfCoreOptions with_finish(const QuadricProjectionParams& q) const {
+    OutOfCoreOptions o;
+    o.quadric_finish = q;
+    return o;
+  }
+};
+
+TEST_F(TiledFinishTest, BitIdenticalToInCoreForAnyTilingAndThreads) {
+  const io::PointTable cloud = test::noisy_cube(1200, 41);
+  const SmoothParams params = few_steps(2);
+  struct Case {
+    const char* name;
+    tiles::TilingParams tiling;
+  };
+  const Case cases[] = {
+      {"one tile", {.max_tile_points = 1u << 20}},
+      {"kd 150", {.max_tile_points = 150}},
+      {"kd 5 (a handful of points a tile)", {.max_tile_points = 5}},
+      {"cells 0.3 (empty tiles)", {.cell_size = 0.3}},
+  };
+  for (const auto& [passes, degree] : {std::pair{1, 2}, std::pair{2, 3}}) {
+    const QuadricProjectionParams q = finish_params(passes, degree);
+    const test::InCore ref = finished_in_core(cloud, params, q);
+    // The finish moved the points: a run without it would not pass.
+    ASSERT_NE(ref.positions, test::run_in_core(cloud, params).positions);
+    for (const Case& c : cases) {
+      write_container(path("in.h5"), cloud, test::tiled(c.tiling, 256));
+      const TileTable tiles = read_tile_table(h5::File::open(path("in.h5"), false));
+      std::size_t empty = 0;
+      for (std::size_t t = 0; t < tiles.size(); ++t) empty += tiles.rows(t) == 0;
+      if (c.tiling.cell_size > 0.0) {
+        EXPECT_GT(empty, 0u) << "not the case this test is for";
+      }
+      for (const int threads : {1, 2}) {
+        SCOPED_TRACE(testing::Message() << c.name << ", passes " << passes << ", degree " << degree << ", "
+                                        << threads << " threads");
+        set_thread_count(threads);
+        const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, with_finish(q));
+        EXPECT_TRUE(r.finished);
+        EXPECT_EQ(r.finish_passes, passes);
+        EXPECT_EQ(r.lambda, ref.report.lambda);
+        test::expect_identical(path("run.h5"), ref);
+        std::filesystem::remove(path("run.h5"));
+      }
+    }
+  }
+}
+
+TEST_F(TiledFinishTest, EmptyTilesAndTinyClouds) {
+  // Fewer points than the fit's k (rows shorter than k), down to none; tiles of three points.
+  for (const std::size_t n : {0u, 1u, 2u, 7u, 40u}) {
+    SCOPED_TRACE(n);
+    const io::PointTable cloud = test::noisy_cube(n, 42);
+    for (const int steps : {0, 2}) {
+      const SmoothParams params = few_steps(steps);
+      const QuadricProjectionParams q = finish_params(2, 2);
+      const test::InCore ref = finished_in_core(cloud, params, q);
+      write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 3}));
+      EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, with_finish(q)).finished);
+      test::expect_identical(path("run.h5"), ref);
+      std::filesystem::remove(path("run.h5"));
+    }
+  }
+}
+
+// Stopped during the steps, after the first finish pass and after the last (before the
+// attributes), then resumed: the bits of the uninterrupted run, which are the in-core ones.
+TEST_F(TiledFinishTest, StoppedAndResumedToTheSameBits) {
+  const io::PointTable cloud = test::noisy_cube(1500, 43);
+  const SmoothParams params = few_steps(3);
+  const QuadricProjectionParams q = finish_params(2, 2);
+  const test::InCore ref = finished_in_core(cloud, params, q);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 200}, 256));
+  set_thread_count(2);
+  for (const int stop_steps : {1, -1}) {
+    for (const int stop_passes : {-1, 1, 2}) {
+      if (stop_steps < 0 && stop_passes < 0) continue;
+      SCOPED_TRACE(testing::Message() << "stopped after " << stop_steps << " steps, " << stop_passes << " passes");
+      OutOfCoreOptions stop = with_finish(q);
+      stop.stop_after_steps = stop_steps;
+      stop.stop_after_finish_passes = stop_passes;
+      const OutOfCoreReport first = smooth_out_of_core(path("in.h5"), path("run.h5"), params, stop);
+      EXPECT_FALSE(first.finished);
+      EXPECT_FALSE(std::filesystem::exists(path("run.h5")));
+      if (stop_steps < 0) {
+        EXPECT_EQ(first.finish_passes, stop_passes);
+      }
+      OutOfCoreOptions resume = with_finish(q);
+      resume.resume = true;
+      if (stop_steps >= 0) resume.stop_after_finish_passes = stop_passes;
+      OutOfCoreReport second = smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume);
+      if (!second.finished) {
+        resume.stop_after_finish_passes = -1;
+        second = smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume);
+      }
+      EXPECT_TRUE(second.finished);
+      EXPECT_EQ(second.finish_passes, 2);
+      EXPECT_EQ(second.lambda, ref.report.lambda);
+      test::expect_identical(path("run.h5"), ref);
+      std::filesystem::remove(path("run.h5"));
+    }
+  }
+}
+
+// An automatic stop: the attributes use the lambda measured on the flow's final positions,
+// which the finish overwrites; a run stopped after a finish pass and resumed keeps it.
+TEST_F(TiledFinishTest, AutomaticStopThenFinishResumesWithTheStopsLambda) {
+  const io::PointTable cloud = test::noisy_cube(3000, 44);
+  SmoothParams params;  // defaults: stop when lambda falls to stop_lambda_ratio of the input's
+  params.steps = 60;
+  const QuadricProjectionParams q = finish_params(2, 2);
+  const test::InCore ref = finished_in_core(cloud, params, q);
+  ASSERT_TRUE(ref.report.stopped_early);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 500}));
+  OutOfCoreOptions stop = with_finish(q);
+  stop.stop_after_finish_passes = 1;
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, stop).finished);
+  OutOfCoreOptions resume = with_finish(q);
+  resume.resume = true;
+  const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume);
+  EXPECT_TRUE(r.finished);
+  EXPECT_EQ(r.steps, ref.report.steps);
+  EXPECT_EQ(r.lambda, ref.report.lambda);
+  test::expect_identical(path("run.h5"), ref);
+}
+
+TEST_F(TiledFinishTest, ResumeWithOtherFinishParametersIsRefused) {
+  const io::PointTable cloud = test::noisy_cube(800, 45);
+  const SmoothParams params = few_steps(2);
+  const QuadricProjectionParams q = finish_params(2, 2);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 200}));
+  OutOfCoreOptions stop = with_finish(q);
+  stop.stop_after_finish_passes = 1;
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, stop).finished);
+  OutOfCoreOptions resume;
+  resume.resume = true;
+  EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume), ParamError) << "no finish";
+  QuadricProjectionParams other_k = q, other_passes = q, other_degree = q, other_angle = q;
+  other_k.k = 31;
+  other_passes.passes = 3;
+  other_degree.degree = 3;
+  other_angle.normal_angle = 20.0;
+  for (const QuadricProjectionParams& other : {other_k, other_passes, other_degree, other_angle}) {
+    resume.quadric_finish = other;
+    EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume), ParamError);
+  }
+  // The run itself still resumes with its own.
+  resume.quadric_finish = q;
+  EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume).finished);
+  test::expect_identical(path("run.h5"), finished_in_core(cloud, params, q));
+}
+
+}  // namespace
