@@ -186,8 +186,8 @@ TEST_F(CliTest, OutOfCoreSmoothTakesCompensationAndPlateauStop) {
 }
 
 // --quadric-finish: the pass after the flow, reported in the JSON; it moves the points; bad
-// values and out-of-core runs are refused with a message naming the problem.
-TEST_F(CliTest, SmoothTakesTheQuadricFinishInCoreOnly) {
+// values are refused with a message naming the problem; out of core it gives the same points.
+TEST_F(CliTest, SmoothTakesTheQuadricFinishInAndOutOfCore) {
   const fs::path in = write_cloud("in.ply", 3000);
   const std::string plain = smooth_json(in, "--steps 3");
   EXPECT_NE(plain.find("\"quadric_finish\": {\"enabled\": false"), std::string::npos) << plain;
@@ -200,11 +200,16 @@ TEST_F(CliTest, SmoothTakesTheQuadricFinishInCoreOnly) {
   const RunResult bad = run("smooth " + in.string() + " " + (dir_ / "b.ply").string() + " --quadric-finish --quadric-k 3");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_NE(bad.err.find("quadric k"), std::string::npos) << bad.err;
-  const RunResult ooc = run("smooth " + in.string() + " " + (dir_ / "c.ply").string() +
-                            " --memory-budget 1M --quadric-finish --quiet");
-  EXPECT_NE(ooc.exit_code, 0);
-  EXPECT_NE(ooc.err.find("--quadric-finish runs in core only"), std::string::npos) << ooc.err;
-  EXPECT_FALSE(fs::exists(dir_ / "c.ply"));
+  const std::string method = " --steps 3 --quadric-finish --quadric-k 40 --quadric-angle 25 --threads 2";
+  const RunResult core = run("smooth " + in.string() + " " + (dir_ / "d.ply").string() + method + " --json --quiet");
+  ASSERT_EQ(core.exit_code, 0) << core.err;
+  EXPECT_EQ(core.out.find("\"out_of_core\": true"), std::string::npos) << core.out;
+  const RunResult ooc = run("smooth " + in.string() + " " + (dir_ / "c.ply").string() + " --memory-budget 1M" +
+                            method + " --json --quiet");
+  ASSERT_EQ(ooc.exit_code, 0) << ooc.err;
+  EXPECT_NE(ooc.out.find("\"out_of_core\": true"), std::string::npos) << ooc.out;
+  EXPECT_NE(ooc.out.find("\"quadric_finish\": {\"enabled\": true, \"k\": 40"), std::string::npos) << ooc.out;
+  EXPECT_EQ(io::read_points(dir_ / "c.ply").positions, io::read_points(dir_ / "d.ply").positions);
 }
 
 // LAS in, LAS out: same point format and integer grid, per-point fields untouched.

@@ -95,6 +95,14 @@ TEST_F(KillResumeTest, StepsWrittenInListOrderKilledAndResumedAreBitIdentical) {
                    "--threads", "2", "--quiet"});
 }
 
+// The quadric finish after the steps, two passes committed like steps: killed in the steps,
+// in either pass or in the attributes, the same bits.
+TEST_F(KillResumeTest, QuadricFinishKilledAndResumedIsBitIdentical) {
+  write_container(path("in.h5"), test::noisy_cube(8000, 24), test::tiled({.max_tile_points = 1500}));
+  kill_and_resume({"--steps", "4", "--quadric-finish", "--quadric-k", "40", "--quadric-passes", "2", "--threads",
+                   "2", "--quiet"});
+}
+
 // The same with the shrinkage compensation and the plateau stop, which the command line
 // passes to the out-of-core run: its result is smooth()'s, stopped at the same step.
 TEST_F(KillResumeTest, CompensatedRunWithPlateauStopKilledAndResumedIsBitIdentical) {

@@ -36,14 +36,6 @@ bool wants_out_of_core(const Args& args) {
 
 namespace {
 
-// The quadric finish needs every point's wide neighbourhood at once: in core only.
-void require_in_core_finish(const FinishOptions& finish, const std::string& input) {
-  if (finish.quadric)
-    throw ParamError("--quadric-finish runs in core only, and " + input +
-                     " runs out of core here (an HDF5 container, --resume, or a cloud beyond "
-                     "--memory-budget): leave it out, or give a point file within the budget");
-}
-
 Args without_budget(const Args& args) {
   Args out;
   for (std::size_t i = 0; i < args.size(); ++i) {
@@ -101,23 +93,27 @@ int run_smooth_out_of_core(const Args& args) {
   add_output_options(parser, output, true);
   if (!parser.parse(args)) return 0;
   params.validate();
+  if (finish.quadric) {
+    finish.quadric_params.validate();
+    ooc.quadric_finish = finish.quadric_params;
+  }
   set_thread_count(output.threads);
   const auto t_start = std::chrono::steady_clock::now();
 
   const bool container_in = is_container_path(input), container_out = is_container_path(output_path);
-  if (container_in) require_in_core_finish(finish, input);
   fs::path run_input = input;
   fs::path imported;
   if (!container_in) {
     // The PLY header's count, or a counting pass over a text file: the cloud is not loaded.
     const std::uint64_t points = count_points(input);
     const bool compensated = params.shrink_compensation > 0.0;
-    // The automatic k is not known before the cloud is read: size for the largest it picks.
-    const int k_bound = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
+    // The automatic k is not known before the cloud is read: size for the largest it picks;
+    // the quadric finish holds lists of its own k.
+    int k_bound = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
+    if (finish.quadric) k_bound = std::max(k_bound, finish.quadric_params.k);
     if (!container_out && in_core_bytes(points, k_bound, compensated) <= ooc.memory_budget && !ooc.resume) {
       return run_smooth(without_budget(args));
     }
-    require_in_core_finish(finish, input);
     io::require_distinct(input, output_path);
     imported = fs::path(output_path).string() + ".input.h5";
     tiles::StreamImportOptions import;
@@ -188,12 +184,17 @@ int run_smooth_out_of_core(const Args& args) {
   if (output.json) {
     JsonObject seconds;
     seconds.add("neighbors", report.seconds_neighbors).add("steps", report.seconds_steps)
-        .add("attributes", report.seconds_attributes).add("write", seconds_write).add("total", seconds_total);
+        .add("finish", report.seconds_finish).add("attributes", report.seconds_attributes).add("write", seconds_write).add("total", seconds_total);
     JsonObject j;
     j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
     j.add("out_of_core", true).add("points", static_cast<std::size_t>(report.points)).add("tiles", report.tiles);
     j.add("steps", report.steps).add("resumed_from", report.resumed_from).add("threads", thread_count());
     j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
+    JsonObject q;
+    q.add("enabled", finish.quadric).add("k", finish.quadric_params.k)
+        .add("angle_degrees", finish.quadric_params.normal_angle)
+        .add("degree", finish.quadric_params.degree).add("passes", finish.quadric_params.passes);
+    j.add("quadric_finish", q);
     j.add("memory_budget_bytes", static_cast<std::size_t>(ooc.memory_budget));
     j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
     j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));

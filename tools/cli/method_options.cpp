@@ -193,7 +193,7 @@ void add_finish_options(ArgumentParser& p, FinishOptions& f) {
          "After the flow, move every point onto a quadric fitted to its --quadric-k nearest "
          "neighbours whose normals lie within --quadric-angle of its own (Tukey-reweighted): "
          "removes the noise the flow leaves on smooth surfaces, keeps creases. Beyond the paper; "
-         "in core only. Default off.",
+         "out of core too, with the same result. Default off.",
          [&f] { f.quadric = true; });
   p.value("quadric-k", "N", "Neighbours of each quadric fit (5..1024). Default 200.",
           [&f](std::string_view v) { f.quadric_params.k = parse_int(v, "--quadric-k"); });
