@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sstream>
 
 #include "pointfair/tiles/container.hpp"
@@ -31,6 +32,7 @@ class MpiRunTest : public test::TempDirTest {
   void run_serial(const std::string& out, bool resume = false) {
     OutOfCoreOptions options;
     options.resume = resume;
+    options.quadric_finish = finish_;
     smooth_out_of_core(path("in.h5"), path(out), params_, options);
   }
 
@@ -79,8 +81,9 @@ class MpiRunTest : public test::TempDirTest {
     EXPECT_EQ(0, std::memcmp(ra.data(), rb.data(), ra.size() * sizeof(double))) << "result positions";
     std::vector<std::int64_t> sa = fa.dataset("/run/state").read_all<std::int64_t>(),
                               sb = fb.dataset("/run/state").read_all<std::int64_t>();
-    ASSERT_EQ(sa.size(), 6u);
-    ASSERT_EQ(sb.size(), 6u);
+    // Six slots, seven with the quadric finish (its passes).
+    ASSERT_EQ(sa.size(), finish_ ? 7u : 6u);
+    ASSERT_EQ(sb.size(), sa.size());
     sa[5] = sb[5] = 0;  // the step buffer
     EXPECT_EQ(sa, sb) << "/run/state";
     std::vector<std::string> datasets = {"/run/neighbors/rows",
@@ -111,6 +114,7 @@ class MpiRunTest : public test::TempDirTest {
     p.steps = kSteps;
     return p;
   }();
+  std::optional<QuadricProjectionParams> finish_;
   std::string method_;
   std::string log_;
   double seconds_ = 0.0;  // of the last run_mpi
@@ -234,6 +238,28 @@ TEST_F(MpiRunTest, CompensationAndPlateauStopOnRanksAndResumedOnOthers) {
 
   OutOfCoreOptions options;
   options.stop_after_steps = 5;
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("b.h5"), params_, options).finished);
+  ASSERT_EQ(run_mpi(2, "b.h5", "", true), 0) << log_;
+  expect_same_run("ref.h5", "b.h5");
+}
+
+// The quadric finish: each rank finishes its tiles, every pass committed once all ranks
+// wrote it: the single process's run to the bit; one stopped by a single process after the
+// first pass resumes on 2 ranks, still to the bit.
+TEST_F(MpiRunTest, QuadricFinishOnTwoRanksBitIdenticalToOneProcess) {
+  QuadricProjectionParams q;
+  q.k = 30;
+  q.passes = 2;
+  finish_ = q;
+  method_ = " --quadric-finish --quadric-k 30 --quadric-passes 2";
+  run_serial("ref.h5");
+  ASSERT_EQ(run_mpi(2, "out.h5"), 0) << log_;
+  expect_collective_writes();
+  expect_same_run("ref.h5", "out.h5");
+
+  OutOfCoreOptions options;
+  options.quadric_finish = q;
+  options.stop_after_finish_passes = 1;
   EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("b.h5"), params_, options).finished);
   ASSERT_EQ(run_mpi(2, "b.h5", "", true), 0) << log_;
   expect_same_run("ref.h5", "b.h5");
