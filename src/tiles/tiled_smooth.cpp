@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <numeric>
 #include <optional>
 #include <sstream>
@@ -131,6 +132,19 @@ struct LocalSet {
   std::vector<Index> queries;           // local indices of the tile's own points, in row order
   std::uint64_t bytes() const {
     return tiles::bytes(positions) + tiles::bytes(rows) + tiles::bytes(original) + tiles::bytes(queries);
+  }
+};
+
+// The quadric finish's lists of one tile's gathered points (LocalSet, local indices): each
+// tile point's fit (its k nearest; row r: the tile's row r), and the rows every normal those
+// fits read is fitted to (a row for every gathered point, empty for those no fit reads).
+struct FinishLists {
+  Neighborhoods fits;
+  Neighborhoods normals;
+  std::uint64_t near_bytes = 0;  // what built the halo points' rows held
+  std::uint64_t bytes() const {
+    return tiles::bytes(fits.indices) + tiles::bytes(fits.counts) + tiles::bytes(normals.indices) +
+           tiles::bytes(normals.counts) + near_bytes;
   }
 };
 
@@ -284,8 +298,8 @@ class Run {
   void copy_halo(std::vector<Vec3>& buffer, std::size_t t) const;
   void release_positions();
   bool run_finish(OutOfCoreReport& report);
-  std::optional<Neighborhoods> finish_lists(std::size_t t, double halo, const LocalSet& local,
-                                            const QuadricProjectionParams& q) const;
+  std::optional<FinishLists> finish_lists(std::size_t t, double halo, const LocalSet& local,
+                                          const QuadricProjectionParams& q) const;
   void finish_tile(std::size_t t, const QuadricProjectionParams& q, std::vector<Vec3>& result);
   std::size_t write_attributes(double lambda);
   void finish(std::size_t attributes_degenerate, double lambda);
@@ -1860,21 +1874,20 @@ bool Run::run_steps(OutOfCoreReport& report) {
 
 // ---- the quadric finish -------------------------------------------------------------------------
 
-std::optional<Neighborhoods> Run::finish_lists(std::size_t t, double halo, const LocalSet& local,
-                                               const QuadricProjectionParams& q) const {
+std::optional<FinishLists> Run::finish_lists(std::size_t t, double halo, const LocalSet& local,
+                                             const QuadricProjectionParams& q) const {
   // finish_with_quadrics's lists on the tile's gathered points (sorted by original index: the
-  // canonical tie rule): each tile point's row holds its q.k nearest; the row of each halo
-  // point those rows name holds its first q.normal_neighbors of them (all its normal reads);
-  // the other rows are empty. Empty (the halo must grow) unless every such row is certain to
-  // be the in-core one: its farthest entry lies inside what was gathered.
+  // canonical tie rule). Empty (the halo must grow) unless every row is certain to be the
+  // in-core one: its farthest entry lies inside what was gathered.
   constexpr double inf = std::numeric_limits<double>::infinity();
   const std::size_t n = local.positions.size(), kk = static_cast<std::size_t>(q.k);
   const bool all = covers_all(t, halo);
-  const Neighborhoods own = build_neighborhoods(local.positions, local.queries, q.k, inf);
+  FinishLists lists;
+  lists.fits = build_neighborhoods(local.positions, local.queries, q.k, inf);
   std::vector<char> in_tile(n, 0), named(n, 0);
   for (const Index i : local.queries) in_tile[i] = 1;
-  for (std::size_t r = 0; r < own.size(); ++r) {
-    const std::span<const Index> row = own.of(r);
+  for (std::size_t r = 0; r < lists.fits.size(); ++r) {
+    const std::span<const Index> row = lists.fits.of(r);
     if (!all && (row.size() < kk || !((local.positions[row.back()] - local.positions[local.queries[r]]).norm() <
                                        halo * (1.0 - kHaloMargin))))
       return std::nullopt;
@@ -1883,7 +1896,8 @@ std::optional<Neighborhoods> Run::finish_lists(std::size_t t, double halo, const
   std::vector<Index> halo_queries;
   for (std::size_t i = 0; i < n; ++i)
     if (named[i]) halo_queries.push_back(static_cast<Index>(i));
-  // A prefix of the canonical order is the canonical order of fewer neighbours.
+  // A normal reads the first normal_neighbors of the point's row; a prefix of the canonical
+  // order is the canonical order of fewer neighbours.
   const int m = std::min(q.k, q.normal_neighbors);
   const Neighborhoods near = build_neighborhoods(local.positions, halo_queries, m, inf);
   if (!all) {
@@ -1900,18 +1914,21 @@ std::optional<Neighborhoods> Run::finish_lists(std::size_t t, double halo, const
       }
     }
   }
-  Neighborhoods lists;
-  lists.stride = q.k;
-  lists.eps = inf;
-  lists.counts.assign(n, 0);
-  lists.indices.assign(n * kk, 0);
-  const auto put = [&](const Neighborhoods& from, std::size_t r, Index i) {
-    const std::span<const Index> row = from.of(r);
-    std::copy(row.begin(), row.end(), lists.indices.begin() + static_cast<std::ptrdiff_t>(i * kk));
-    lists.counts[i] = static_cast<std::uint16_t>(row.size());
+  // The normals' rows: the tile's points and the halo points the fits name; the others empty.
+  Neighborhoods& normal_rows = lists.normals;
+  normal_rows.stride = m;
+  normal_rows.eps = inf;
+  normal_rows.counts.assign(n, 0);
+  normal_rows.indices.assign(n * static_cast<std::size_t>(m), 0);
+  const auto put = [&](std::span<const Index> row, Index i) {
+    const std::size_t count = std::min(row.size(), static_cast<std::size_t>(m));
+    std::copy(row.begin(), row.begin() + static_cast<std::ptrdiff_t>(count),
+              normal_rows.indices.begin() + static_cast<std::ptrdiff_t>(i * static_cast<std::size_t>(m)));
+    normal_rows.counts[i] = static_cast<std::uint16_t>(count);
   };
-  for (std::size_t r = 0; r < own.size(); ++r) put(own, r, local.queries[r]);
-  for (std::size_t r = 0; r < near.size(); ++r) put(near, r, halo_queries[r]);
+  for (std::size_t r = 0; r < lists.fits.size(); ++r) put(lists.fits.of(r), local.queries[r]);
+  for (std::size_t r = 0; r < near.size(); ++r) put(near.of(r), halo_queries[r]);
+  lists.near_bytes = bytes(near.indices) + bytes(near.counts) + bytes(halo_queries) + 2 * n;
   return lists;
 }
 
@@ -1920,30 +1937,35 @@ void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::vect
   // neighbor_source_: into `result`, in row order.
   for (double halo = knn_first_halo(t, q.k);; halo *= 2.0) {
     const LocalSet local = gather_local(t, halo);
-    std::optional<Neighborhoods> lists = finish_lists(t, halo, local, q);
+    const std::optional<FinishLists> lists = finish_lists(t, halo, local, q);
     // The cell grids held about 48 bytes a point while they searched.
     const std::uint64_t searched = local.bytes() + local.positions.size() * 50;
     if (!lists) {
       account(searched);
       continue;
     }
-    const std::vector<Vec3> normals = neighbourhood_normals(local.positions, *lists, q);
-    // Only the tile's points are projected: with its row emptied, a halo point is left where
-    // it is (fewer than six points fit no quadric).
-    std::vector<std::uint16_t> tile_counts(local.queries.size());
-    for (std::size_t r = 0; r < tile_counts.size(); ++r) tile_counts[r] = lists->counts[local.queries[r]];
-    std::fill(lists->counts.begin(), lists->counts.end(), std::uint16_t{0});
-    for (std::size_t r = 0; r < tile_counts.size(); ++r) lists->counts[local.queries[r]] = tile_counts[r];
-    std::vector<Vec3> out(local.positions.size());
-    project_to_quadrics(local.positions, normals, *lists, q, out);
+    const std::vector<Vec3> normals = neighbourhood_normals(local.positions, lists->normals, q);
+    // project_to_quadrics's loop over the tile's points alone (it would take a row for every
+    // gathered point): the same kept neighbours, the same projection.
+    const double min_cos = std::cos(q.normal_angle * std::numbers::pi / 180.0);
     result.resize(local.queries.size());
-    for (std::size_t r = 0; r < result.size(); ++r) result[r] = out[local.queries[r]];
+    parallel_for(result.size(), [&](std::size_t begin, std::size_t end) {
+      std::vector<Index> kept;
+      for (std::size_t r = begin; r < end; ++r) {
+        const Index i = local.queries[r];
+        const Vec3& ni = normals[i];
+        if (ni.isZero()) {  // no plane, no direction to move along
+          result[r] = local.positions[i];
+          continue;
+        }
+        kept.clear();
+        for (const Index j : lists->fits.of(r))
+          if (std::abs(ni.dot(normals[j])) >= min_cos) kept.push_back(j);
+        result[r] = project_to_quadric(local.positions[i], kept, local.positions, q);
+      }
+    }, 64);
     largest_local_ = std::max<std::uint64_t>(largest_local_, local.positions.size());
-    // The lists of the tile's and of the halo's points were built apart, then copied in; then
-    // the normals and the projections came next to them.
-    const std::uint64_t list_bytes = bytes(lists->indices) + bytes(lists->counts);
-    account(searched + list_bytes +
-            std::max(list_bytes, bytes(normals) + bytes(out) + bytes(result) + bytes(tile_counts)));
+    account(searched + lists->bytes() + bytes(normals) + bytes(result));
     return;
   }
 }
