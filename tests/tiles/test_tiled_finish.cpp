@@ -97,6 +97,35 @@ TEST_F(TiledFinishTest, BitIdenticalToInCoreForAnyTilingAndThreads) {
   }
 }
 
+// The finish after the other ways of stepping: rebuilt lists (the attributes use the last
+// ones), temporal blocks, compensated steps.
+TEST_F(TiledFinishTest, AfterRebuildsBlocksAndCompensationLikeInCore) {
+  const io::PointTable cloud = test::noisy_cube(1500, 46);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 120}, 256));
+  set_thread_count(2);
+  struct Case {
+    const char* name;
+    int rebuild_interval;
+    int temporal_block;
+    double shrink_compensation;
+  };
+  for (const Case& c : {Case{"rebuild every 2 steps", 2, 1, 0.0}, Case{"temporal blocks of 2", 0, 2, 0.0},
+                        Case{"compensated, blocks of 2", 0, 2, 1.0}, Case{"compensated", 0, 1, 1.0}}) {
+    SCOPED_TRACE(c.name);
+    SmoothParams params = few_steps(4);
+    params.rebuild_interval = c.rebuild_interval;
+    params.shrink_compensation = c.shrink_compensation;
+    params.lambda_every_step = c.temporal_block == 1;
+    const QuadricProjectionParams q = finish_params(1, 3);
+    const test::InCore ref = finished_in_core(cloud, params, q);
+    OutOfCoreOptions options = with_finish(q);
+    options.temporal_block = c.temporal_block;
+    EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
+    test::expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+  }
+}
+
 TEST_F(TiledFinishTest, EmptyTilesAndTinyClouds) {
   // Fewer points than the fit's k (rows shorter than k), down to none; tiles of three points.
   for (const std::size_t n : {0u, 1u, 2u, 7u, 40u}) {
