@@ -3,6 +3,8 @@
 // empty tiles, one or two threads; stopped during or after the finish and resumed, the same
 // bits; a resume with other finish parameters is refused.
 #include <filesystem>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "pointfair/parallel.hpp"
@@ -179,6 +181,39 @@ TEST_F(TiledFinishTest, StoppedAndResumedToTheSameBits) {
       test::expect_identical(path("run.h5"), ref);
       std::filesystem::remove(path("run.h5"));
     }
+  }
+}
+
+// Interrupted inside a pass (the progress callback throws, as the command line's interrupt
+// does), after some of its tiles were written to the other buffer but before its commit:
+// the resumed run does the pass again and ends with the same bits.
+TEST_F(TiledFinishTest, InterruptedInsideAPassResumesToTheSameBits) {
+  const io::PointTable cloud = test::noisy_cube(1500, 47);
+  const SmoothParams params = few_steps(2);
+  const QuadricProjectionParams q = finish_params(2, 2);
+  const test::InCore ref = finished_in_core(cloud, params, q);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 200}, 256));
+  const TileTable tiles = read_tile_table(h5::File::open(path("in.h5"), false));
+  std::size_t filled = 0;
+  for (std::size_t t = 0; t < tiles.size(); ++t) filled += tiles.rows(t) > 0;
+  ASSERT_GT(filled, 3u);
+  // The second tile of the first pass, the second of the second.
+  for (const std::size_t interrupt_at : {std::size_t{2}, filled + 2}) {
+    SCOPED_TRACE(interrupt_at);
+    OutOfCoreOptions first = with_finish(q);
+    std::size_t finished_tiles = 0;
+    first.progress = [&](const std::string& phase, std::uint64_t, std::uint64_t) {
+      if (phase == "finish" && ++finished_tiles == interrupt_at) throw std::runtime_error("interrupted");
+    };
+    EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), params, first), std::runtime_error);
+    ASSERT_TRUE(std::filesystem::exists(partial_name(path("run.h5"))));
+    OutOfCoreOptions resume = with_finish(q);
+    resume.resume = true;
+    const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume);
+    EXPECT_TRUE(r.finished);
+    EXPECT_EQ(r.finish_passes, 2);
+    test::expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
   }
 }
 
