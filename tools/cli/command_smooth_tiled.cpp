@@ -184,7 +184,8 @@ int run_smooth_out_of_core(const Args& args) {
   if (output.json) {
     JsonObject seconds;
     seconds.add("neighbors", report.seconds_neighbors).add("steps", report.seconds_steps)
-        .add("finish", report.seconds_finish).add("attributes", report.seconds_attributes).add("write", seconds_write).add("total", seconds_total);
+        .add("finish", report.seconds_finish).add("attributes", report.seconds_attributes)
+        .add("write", seconds_write).add("total", seconds_total);
     JsonObject j;
     j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
     j.add("out_of_core", true).add("points", static_cast<std::size_t>(report.points)).add("tiles", report.tiles);

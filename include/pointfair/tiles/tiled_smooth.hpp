@@ -19,12 +19,12 @@
 //   tile with it (as temporal blocks do, two rings a step) and compensate in list order.
 // - the automatic stops (stop_lambda_ratio, stop_plateau) see the lambda of every step so
 //   far; a resumed run reads those of the steps before it from the run's step log.
-//
 // - the quadric finish (quadric_projection.hpp), after the last step, pass by pass: each
 //   tile gathers the pass's positions of its points and of a halo grown until it holds every
 //   point's k nearest, and the normal_neighbors nearest of every halo point in those lists
 //   (whose normals decide which neighbours a fit keeps); the tile's points are projected as
-//   in core and each pass is committed like a step.
+//   in core and each pass is committed like a step. A pass reads, computes and writes one
+//   tile after the other (no pipeline: the fits, not the I/O, take its time).
 //
 // Each step is a bounded pipeline (pipeline.hpp): tile i+1 and its halo are read while tile
 // i is computed (parallel_for) and tile i-1 written; every HDF5 call stays on the calling
@@ -76,8 +76,8 @@ struct OutOfCoreOptions {
   /// Stop (as if killed) after this many finish passes committed by this call; < 0: never.
   /// For tests.
   int stop_after_finish_passes = -1;
-  /// Called with a phase name ("eps", "neighbors", "step", "finish", "attributes") and progress (of this
-  /// rank's tiles in the per-tile phases).
+  /// Called with a phase name ("eps", "neighbors", "step", "finish", "attributes") and
+  /// progress (of this rank's tiles in the per-tile phases).
   std::function<void(const std::string&, std::uint64_t, std::uint64_t)> progress;
   /// The processes sharing the run (ranks.hpp), each calling smooth_out_of_core with the same
   /// arguments; each builds the neighbourhoods of and steps its own contiguous range of tiles
