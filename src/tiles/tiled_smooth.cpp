@@ -113,6 +113,7 @@ std::string finish_key(const QuadricProjectionParams& q) {
   s << "quadric_k=" << q.k << " quadric_normal_neighbors=" << q.normal_neighbors
     << " quadric_angle=" << q.normal_angle << " quadric_iterations=" << q.iterations
     << " quadric_bound=" << q.inlier_bound << " quadric_degree=" << q.degree << " quadric_passes=" << q.passes
+    << " quadric_curvature_reach=" << q.curvature_reach << " quadric_min_k=" << q.min_k
     << " quadric_frame_seed=" << q.frame.seed_neighbors << " quadric_frame_iterations=" << q.frame.iterations
     << " quadric_frame_bound=" << q.frame.inlier_bound;
   return s.str();

@@ -72,7 +72,11 @@ TEST_F(TiledFinishTest, BitIdenticalToInCoreForAnyTilingAndThreads) {
       {"cells 0.3 (empty tiles)", {.cell_size = 0.3}},
   };
   for (const auto& [passes, degree] : {std::pair{1, 2}, std::pair{2, 3}}) {
-    const QuadricProjectionParams q = finish_params(passes, degree);
+    QuadricProjectionParams q = finish_params(passes, degree);
+    if (degree == 3) {  // and fits bounded by the pilot curvature
+      q.curvature_reach = 0.7;
+      q.min_k = 12;
+    }
     const test::InCore ref = finished_in_core(cloud, params, q);
     // The finish moved the points: a run without it would not pass.
     ASSERT_NE(ref.positions, test::run_in_core(cloud, params).positions);
@@ -250,12 +254,16 @@ TEST_F(TiledFinishTest, ResumeWithOtherFinishParametersIsRefused) {
   OutOfCoreOptions resume;
   resume.resume = true;
   EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume), ParamError) << "no finish";
-  QuadricProjectionParams other_k = q, other_passes = q, other_degree = q, other_angle = q;
+  QuadricProjectionParams other_k = q, other_passes = q, other_degree = q, other_angle = q, other_reach = q,
+                          other_min_k = q;
   other_k.k = 31;
   other_passes.passes = 3;
   other_degree.degree = 3;
   other_angle.normal_angle = 20.0;
-  for (const QuadricProjectionParams& other : {other_k, other_passes, other_degree, other_angle}) {
+  other_reach.curvature_reach = 0.7;
+  other_min_k.min_k = 20;
+  for (const QuadricProjectionParams& other :
+       {other_k, other_passes, other_degree, other_angle, other_reach, other_min_k}) {
     resume.quadric_finish = other;
     EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume), ParamError);
   }
