@@ -78,8 +78,11 @@ TEST(QuadricProjection, RemovesNoiseFromASphereWithoutShrinkingIt) {
 TEST(QuadricProjection, KeepsACreaseThatAWideFitRoundsOff) {
   const Crease crease{M_PI / 2};
   const std::vector<Vec3> noisy = crease.sample(12000, 0.005, 3);
-  QuadricProjectionParams params;
+  QuadricProjectionParams params;  // one quadric pass over all 80 (the figures above)
   params.k = 80;
+  params.degree = 2;
+  params.passes = 1;
+  params.curvature_reach = 0.0;
   std::vector<Vec3> filtered = noisy, everyone = noisy;
   finish_with_quadrics(filtered, params);
   params.normal_angle = 90.0;
@@ -148,7 +151,7 @@ TEST(QuadricProjection, TwoPassesAreTheFinishTwice) {
   std::vector<Vec3> once_more = twice;
   QuadricProjectionParams params;
   params.k = 40;
-  params.degree = 3;
+  params.passes = 1;
   finish_with_quadrics(once_more, params);
   finish_with_quadrics(once_more, params);
   params.passes = 2;
@@ -171,7 +174,8 @@ TEST(QuadricProjection, CurvatureReachKeepsFineDetail) {
     }
   QuadricProjectionParams params;
   params.k = 200;
-  params.degree = 3;
+  params.passes = 1;
+  params.curvature_reach = 0.0;
   const auto rms = [&](const std::vector<Vec3>& p, bool near_bump) {
     double sum = 0.0;
     std::size_t count = 0;

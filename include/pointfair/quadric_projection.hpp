@@ -31,16 +31,16 @@ struct QuadricProjectionParams {
   double inlier_bound = 3.0;
   /// Degree of the fitted height field: 2 (a quadric, as jet fitting) or 3 (a cubic, whose
   /// odd terms follow a neighbourhood that lies to one side of the point).
-  int degree = 2;
+  int degree = 3;
   /// > 0: each fit takes only the neighbours within curvature_reach / kappa of the point,
   /// kappa the largest principal curvature of a pilot quadric over its min_k nearest (at
   /// least those min_k): wide fits where the surface is flat, narrow ones on fine detail.
   /// 0: all k.
-  double curvature_reach = 0.0;
+  double curvature_reach = 0.7;
   int min_k = 40;
   /// Passes over the cloud, each with neighbourhoods, normals and fits from the last one's
   /// result; 1..10.
-  int passes = 1;
+  int passes = 2;
   /// The plane the quadric's height is measured from, and each point's normal.
   RobustFrameParams frame;
 

@@ -24,6 +24,7 @@ QuadricProjectionParams finish_params(int passes, int degree) {
   q.k = 30;
   q.passes = passes;
   q.degree = degree;
+  q.curvature_reach = 0.0;  // every fit over all k (the test of the tiling sets it)
   return q;
 }
 
@@ -258,9 +259,9 @@ TEST_F(TiledFinishTest, ResumeWithOtherFinishParametersIsRefused) {
                           other_min_k = q;
   other_k.k = 31;
   other_passes.passes = 3;
-  other_degree.degree = 3;
+  other_degree.degree = 5 - q.degree;
   other_angle.normal_angle = 20.0;
-  other_reach.curvature_reach = 0.7;
+  other_reach.curvature_reach = q.curvature_reach + 0.2;
   other_min_k.min_k = 20;
   for (const QuadricProjectionParams& other :
        {other_k, other_passes, other_degree, other_angle, other_reach, other_min_k}) {

@@ -33,8 +33,8 @@ int run_smooth(const Args& args) {
   parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
   parser.positional("OUT", "Output point file; written under a temporary name and renamed when complete.",
                     &output_path);
-  add_method_options(parser, params);
   FinishOptions finish;
+  add_method_options(parser, params, &finish);
   add_finish_options(parser, finish);
   parser.value("neighbors-from", "REF",
                "Build the neighbourhoods from this cloud (same points, same order) instead of the "

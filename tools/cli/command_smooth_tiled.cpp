@@ -69,8 +69,8 @@ int run_smooth_out_of_core(const Args& args) {
                         "result is bit-identical to the in-core run.");
   parser.positional("IN", "Input container (.h5) or point file (.ply, .xyz, ...).", &input);
   parser.positional("OUT", "Output container (.h5) or point file.", &output_path);
-  add_method_options(parser, params);
   FinishOptions finish;
+  add_method_options(parser, params, &finish);
   add_finish_options(parser, finish);
   parser.value("memory-budget", "SIZE",
                "Working memory of the run (e.g. 256M, 2G). A point-file input that fits runs in "

@@ -44,12 +44,15 @@ std::string to_string(ColourBy colour) {
   return "?";
 }
 
-void add_method_options(ArgumentParser& p, SmoothParams& s) {
+void add_method_options(ArgumentParser& p, SmoothParams& s, FinishOptions* finish) {
   p.flag("paper",
          "The method as the paper states it: --cutoff-origin point --normal pca --tau 0.5 "
-         "--steps 100 --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0. Options "
-         "after it override it.",
-         [&s] { s = paper_smooth_params(s); });
+         "--steps 100 --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0" +
+             std::string(finish != nullptr ? " --no-quadric-finish" : "") + ". Options after it override it.",
+         [&s, finish] {
+           s = paper_smooth_params(s);
+           if (finish != nullptr) finish->quadric = false;
+         });
   p.value("k", "N|auto",
           "Neighbours per point, the point itself not counted (1..1024). 'auto': chosen from the "
           "input's noise over its sample spacing, 16 under light noise up to 48 under noise of "
@@ -190,11 +193,14 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
 
 void add_finish_options(ArgumentParser& p, FinishOptions& f) {
   p.flag("quadric-finish",
-         "After the flow, move every point onto a quadric fitted to its --quadric-k nearest "
-         "neighbours whose normals lie within --quadric-angle of its own (Tukey-reweighted): "
+         "After the flow, move every point onto a cubic fitted to its --quadric-k nearest "
+         "neighbours whose normals lie within --quadric-angle of its own, within "
+         "--quadric-curvature-reach of its curvature (Tukey-reweighted, --quadric-passes times): "
          "removes the noise the flow leaves on smooth surfaces, keeps creases. Beyond the paper; "
-         "out of core too, with the same result. Default off.",
+         "out of core too. Default off.",
          [&f] { f.quadric = true; });
+  p.flag("no-quadric-finish", "Leave the flow's result as it is (the default; --paper implies it).",
+         [&f] { f.quadric = false; });
   p.value("quadric-k", "N", "Neighbours of each quadric fit (5..1024). Default 200.",
           [&f](std::string_view v) { f.quadric_params.k = parse_int(v, "--quadric-k"); });
   p.value("quadric-angle", "DEGREES",
@@ -203,17 +209,17 @@ void add_finish_options(ArgumentParser& p, FinishOptions& f) {
           [&f](std::string_view v) { f.quadric_params.normal_angle = parse_double(v, "--quadric-angle"); });
   p.value("quadric-degree", "2|3",
           "Degree of each fitted height field: 2 (a quadric) or 3 (a cubic, which follows a "
-          "neighbourhood lying to one side of the point). Default 2.",
+          "neighbourhood lying to one side of the point). Default 3.",
           [&f](std::string_view v) { f.quadric_params.degree = parse_int(v, "--quadric-degree"); });
   p.value("quadric-passes", "N",
           "Passes of the finish, each with neighbourhoods, normals and fits from the last one's "
-          "result (1..10). Default 1.",
+          "result (1..10). Default 2.",
           [&f](std::string_view v) { f.quadric_params.passes = parse_int(v, "--quadric-passes"); });
   p.value("quadric-curvature-reach", "C",
           "Fit each quadric only to the neighbours within C / kappa of the point, kappa the "
           "largest principal curvature of a pilot quadric over its --quadric-min-k nearest: "
           "narrow fits on fine detail, wide ones where the surface is flat. 0: all --quadric-k. "
-          "Default 0.",
+          "Default 0.7.",
           [&f](std::string_view v) {
             f.quadric_params.curvature_reach = parse_double(v, "--quadric-curvature-reach");
           });

@@ -23,15 +23,16 @@ struct OutputOptions {
   int threads = 0;
 };
 
-/// The optional pass after the flow (quadric_projection.hpp).
+/// The pass after the flow (quadric_projection.hpp): off by default, and with --paper.
 struct FinishOptions {
   bool quadric = false;
   QuadricProjectionParams quadric_params;
 };
 
-/// Registers --k, --eps, ..., --feature-gated (everything in SmoothParams).
-void add_method_options(ArgumentParser& parser, SmoothParams& params);
-/// Registers --quadric-finish, --quadric-k, --quadric-angle.
+/// Registers --k, --eps, ..., --feature-gated (everything in SmoothParams). With `finish`,
+/// --paper turns the finish off too.
+void add_method_options(ArgumentParser& parser, SmoothParams& params, FinishOptions* finish = nullptr);
+/// Registers --quadric-finish, --no-quadric-finish, --quadric-k, --quadric-angle, ...
 void add_finish_options(ArgumentParser& parser, FinishOptions& finish);
 /// Registers --colour-by, --attributes, --encoding, --json, --quiet, --threads.
 void add_output_options(ArgumentParser& parser, OutputOptions& output, bool with_attributes_flag);

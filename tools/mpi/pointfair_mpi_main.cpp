@@ -71,8 +71,8 @@ int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
       "ranks wrote it. The result is bit-identical to pointfair smooth IN.h5 OUT.h5.");
   parser.positional("IN", "Input container (.h5).", &input);
   parser.positional("OUT", "Output container (.h5); OUT.partial holds the run until it ends.", &output);
-  cli::add_method_options(parser, params);
   cli::FinishOptions finish;
+  cli::add_method_options(parser, params, &finish);
   cli::add_finish_options(parser, finish);
   parser.value("memory-budget", "SIZE", "Working memory of each rank (e.g. 256M, 2G). Default 256M.",
                [&](std::string_view v) { options.memory_budget = cli::parse_size(v, "--memory-budget"); });
