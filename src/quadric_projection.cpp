@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -213,24 +214,34 @@ std::vector<Vec3> neighbourhood_normals(std::span<const Vec3> points, const Neig
 void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals,
                          const Neighborhoods& neighborhoods, const QuadricProjectionParams& params,
                          std::span<Vec3> out) {
-  params.validate();
   const std::size_t n = neighborhoods.size();
   require(points.size() == n && normals.size() == n && out.size() == n,
           "project_to_quadrics: one neighbourhood row, normal and output per point");
+  project_rows_to_quadrics(points, normals, neighborhoods, {}, params, out);
+}
+
+void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, const Neighborhoods& rows,
+                              std::span<const Index> queries, const QuadricProjectionParams& params,
+                              std::span<Vec3> out) {
+  params.validate();
+  const std::size_t n = rows.size();
+  require(normals.size() == points.size() && out.size() == n && (queries.empty() || queries.size() == n),
+          "project_rows_to_quadrics: a normal per point, a row and an output per query");
   const double min_cos = std::cos(params.normal_angle * std::numbers::pi / 180.0);
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
     Scratch s;
     std::vector<Index> kept;
-    for (std::size_t i = begin; i < end; ++i) {
+    for (std::size_t r = begin; r < end; ++r) {
+      const std::size_t i = queries.empty() ? r : queries[r];
       const Vec3& ni = normals[i];
       if (ni.isZero()) {  // no plane, no direction to move along
-        out[i] = points[i];
+        out[r] = points[i];
         continue;
       }
       kept.clear();
-      for (const Index j : neighborhoods.of(i))
+      for (const Index j : rows.of(r))
         if (std::abs(ni.dot(normals[j])) >= min_cos) kept.push_back(j);
-      out[i] = project_one(points[i], kept, points, params, s);
+      out[r] = project_one(points[i], kept, points, params, s);
     }
   }, 256);
 }
@@ -244,11 +255,27 @@ Neighborhoods quadric_neighborhoods(std::span<const Vec3> points, const QuadricP
 
 void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params) {
   params.validate();
-  std::vector<Vec3> out(points.size());
+  const std::size_t n = points.size();
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  // The k-long lists of every point at once would hold 4 k bytes a point (800 at k 200): the
+  // normals come from lists as long as they read (the first entries of the k-long rows, as
+  // the canonical order makes them), the fits from the k-long lists of one block of points at
+  // a time.
+  NeighborParams near;
+  near.k = std::min(params.k, params.normal_neighbors);
+  near.eps = inf;
+  std::vector<Vec3> out(n);
+  std::vector<Index> queries;
   for (int pass = 0; pass < params.passes; ++pass) {
-    const Neighborhoods neighborhoods = quadric_neighborhoods(points, params);
-    const std::vector<Vec3> normals = neighbourhood_normals(points, neighborhoods, params);
-    project_to_quadrics(points, normals, neighborhoods, params, out);
+    const std::vector<Vec3> normals = neighbourhood_normals(points, build_neighborhoods(points, near), params);
+    for (std::size_t first = 0; first < n; first += kQuadricBlock) {
+      const std::size_t count = std::min(kQuadricBlock, n - first);
+      queries.resize(count);
+      std::iota(queries.begin(), queries.end(), static_cast<Index>(first));
+      const Neighborhoods rows = build_neighborhoods(points, queries, params.k, inf);
+      project_rows_to_quadrics(points, normals, rows, queries, params,
+                               std::span<Vec3>(out).subspan(first, count));
+    }
     points.swap(out);
   }
 }

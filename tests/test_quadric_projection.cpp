@@ -217,6 +217,23 @@ TEST(QuadricProjection, TheMoveIsBoundedByTheResidualScale) {
   EXPECT_NEAR(moved.x(), p[far].x(), 1e-3);
 }
 
+// finish_with_quadrics builds the fits' lists for blocks of kQuadricBlock points and the
+// normals' from lists only as long as they read: the bits of one pass over whole-cloud lists.
+TEST(QuadricProjection, BlockedListsGiveTheWholeCloudsBits) {
+  std::vector<Vec3> p = sample_sphere(kQuadricBlock + kQuadricBlock / 3, 1.0, 21).points;
+  add_noise(p, 0.003, 22);
+  QuadricProjectionParams params;
+  params.k = 24;
+  params.min_k = 12;
+  params.passes = 1;
+  const Neighborhoods nb = quadric_neighborhoods(p, params);
+  const std::vector<Vec3> normals = neighbourhood_normals(p, nb, params);
+  std::vector<Vec3> whole(p.size());
+  project_to_quadrics(p, normals, nb, params, whole);
+  finish_with_quadrics(p, params);
+  EXPECT_EQ(p, whole);
+}
+
 TEST(QuadricProjection, TooFewPointsStayPut) {
   std::vector<Vec3> p = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(1, 1, 0.1)};
   const std::vector<Vec3> before = p;

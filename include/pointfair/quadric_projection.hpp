@@ -8,6 +8,7 @@
 // noise left that a wide second-order fit still removes. A plain wide fit bends across sharp
 // edges; the normal test keeps each fit on the point's own face. Measured on the sphere and
 // fandisk (README, Quality).
+#include <cstddef>
 #include <span>
 
 #include "pointfair/neighborhoods.hpp"
@@ -68,8 +69,19 @@ void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> nor
                          const Neighborhoods& neighborhoods, const QuadricProjectionParams& params,
                          std::span<Vec3> out);
 
+/// project_to_quadrics for some points: out[r] is the projection of point queries[r] (r
+/// itself when `queries` is empty) with the neighbours of row r of `rows` (indices into
+/// `points`, as are `queries`); `normals` holds every point's. Parallel.
+void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, const Neighborhoods& rows,
+                              std::span<const Index> queries, const QuadricProjectionParams& params,
+                              std::span<Vec3> out);
+
+/// Points whose k-long lists finish_with_quadrics holds at once.
+inline constexpr std::size_t kQuadricBlock = std::size_t{1} << 16;
+
 /// The whole finish on a cloud, params.passes times: quadric_neighborhoods,
-/// neighbourhood_normals and the projection of every point, in place. Throws ParamError on bad parameters.
+/// neighbourhood_normals and the projection of every point, in place (the lists built for
+/// blocks of kQuadricBlock points at a time, the same rows). Throws ParamError on bad parameters.
 void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params);
 
 }  // namespace pointfair

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <numbers>
 #include <numeric>
 #include <optional>
 #include <sstream>
@@ -1946,25 +1945,8 @@ void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::vect
       continue;
     }
     const std::vector<Vec3> normals = neighbourhood_normals(local.positions, lists->normals, q);
-    // project_to_quadrics's loop over the tile's points alone (it would take a row for every
-    // gathered point): the same kept neighbours, the same projection.
-    const double min_cos = std::cos(q.normal_angle * std::numbers::pi / 180.0);
     result.resize(local.queries.size());
-    parallel_for(result.size(), [&](std::size_t begin, std::size_t end) {
-      std::vector<Index> kept;
-      for (std::size_t r = begin; r < end; ++r) {
-        const Index i = local.queries[r];
-        const Vec3& ni = normals[i];
-        if (ni.isZero()) {  // no plane, no direction to move along
-          result[r] = local.positions[i];
-          continue;
-        }
-        kept.clear();
-        for (const Index j : lists->fits.of(r))
-          if (std::abs(ni.dot(normals[j])) >= min_cos) kept.push_back(j);
-        result[r] = project_to_quadric(local.positions[i], kept, local.positions, q);
-      }
-    }, 64);
+    project_rows_to_quadrics(local.positions, normals, lists->fits, local.queries, q, result);
     largest_local_ = std::max<std::uint64_t>(largest_local_, local.positions.size());
     account(searched + lists->bytes() + bytes(normals) + bytes(result));
     return;
