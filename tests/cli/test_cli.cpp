@@ -212,6 +212,22 @@ TEST_F(CliTest, SmoothTakesTheQuadricFinishInAndOutOfCore) {
   EXPECT_EQ(io::read_points(dir_ / "c.ply").positions, io::read_points(dir_ / "d.ply").positions);
 }
 
+// --paper after --quadric-finish turns it off, options after --paper turn it on again, and
+// --no-quadric-finish turns it off; the JSON reports the finish's degree and passes.
+TEST_F(CliTest, PaperAndNoQuadricFinishLeaveTheFinishOut) {
+  const fs::path in = write_cloud("in.ply", 2000);
+  const std::string off = "\"quadric_finish\": {\"enabled\": false";
+  const std::string on = "\"quadric_finish\": {\"enabled\": true";
+  EXPECT_NE(smooth_json(in, "--quadric-finish --paper --steps 2").find(off), std::string::npos);
+  const std::string again = smooth_json(in, "--paper --steps 2 --quadric-finish --quadric-k 30 --quadric-degree 2 --quadric-passes 1");
+  EXPECT_NE(again.find(on), std::string::npos) << again;
+  EXPECT_NE(again.find("\"degree\": 2, \"passes\": 1"), std::string::npos) << again;
+  EXPECT_NE(smooth_json(in, "--steps 2 --quadric-finish --no-quadric-finish").find(off), std::string::npos);
+  const RunResult bad = run("smooth " + in.string() + " " + (dir_ / "b.ply").string() + " --quadric-finish --quadric-degree 4");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("quadric degree"), std::string::npos) << bad.err;
+}
+
 // LAS in, LAS out: same point format and integer grid, per-point fields untouched.
 TEST_F(CliTest, SmoothLasKeepsFormatAndFields) {
   io::PointTable t;
