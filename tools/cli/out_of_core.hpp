@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <string_view>
 
+#include "pointfair/quadric_projection.hpp"
+
 namespace pointfair::cli {
 
 /// True for .h5 / .hdf5 (case-insensitive).
@@ -25,5 +27,7 @@ inline constexpr std::uint64_t kMinImportBudget = std::uint64_t{16} << 20;
 /// Bytes an in-core smooth of `points` points with k neighbours needs, roughly; `compensated`:
 /// with SmoothParams::shrink_compensation (one more buffer of positions).
 std::uint64_t in_core_bytes(std::uint64_t points, int k, bool compensated = false);
+/// What the in-core quadric finish adds to that.
+std::uint64_t in_core_finish_bytes(std::uint64_t points, const QuadricProjectionParams& finish);
 
 }  // namespace pointfair::cli
