@@ -163,7 +163,8 @@ TEST_F(CliTest, AutomaticKIsTheDefaultAndReported) {
 TEST_F(CliTest, OutOfCoreSmoothTakesCompensationAndPlateauStop) {
   const fs::path in = write_cloud("in.ply", 12000);
   const std::string method =
-      " --steps 40 --shrink-compensation 1 --stop-plateau 0.03 --stop-lambda-ratio 0 --threads 2 --json --quiet";
+      " --steps 40 --shrink-compensation 1 --stop-plateau 0.03 --stop-lambda-ratio 0 --no-quadric-finish --threads 2 "
+      "--json --quiet";
   const auto steps_of = [](const std::string& json) {
     const std::size_t at = json.find("\"steps\": ");
     return at == std::string::npos ? -1 : std::atoi(json.c_str() + at + 9);
@@ -180,16 +181,20 @@ TEST_F(CliTest, OutOfCoreSmoothTakesCompensationAndPlateauStop) {
   EXPECT_EQ(a.positions, b.positions);
   const RunResult plain = run("smooth " + in.string() + " " + (dir_ / "c.ply").string() +
                               " --memory-budget 3M --steps " + std::to_string(steps_of(core.out)) +
-                              " --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0 --threads 2 --quiet");
+                              " --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0 --no-quadric-finish "
+                              "--threads 2 --quiet");
   ASSERT_EQ(plain.exit_code, 0) << plain.err;
   EXPECT_NE(io::read_points(dir_ / "c.ply").positions, b.positions);
 }
 
-// --quadric-finish: the pass after the flow, reported in the JSON; it moves the points; bad
-// values are refused with a message naming the problem; out of core it gives the same points.
+// --quadric-finish: the pass after the flow (on by default), reported in the JSON; it moves
+// the points; bad values are refused with a message naming the problem; out of core it gives
+// the same points.
 TEST_F(CliTest, SmoothTakesTheQuadricFinishInAndOutOfCore) {
   const fs::path in = write_cloud("in.ply", 3000);
-  const std::string plain = smooth_json(in, "--steps 3");
+  EXPECT_NE(smooth_json(in, "--steps 3").find("\"quadric_finish\": {\"enabled\": true, \"k\": 200"),
+            std::string::npos);
+  const std::string plain = smooth_json(in, "--steps 3 --no-quadric-finish");
   EXPECT_NE(plain.find("\"quadric_finish\": {\"enabled\": false"), std::string::npos) << plain;
   const io::PointTable flow_only = io::read_points(dir_ / "out.ply");
   const std::string finished = smooth_json(in, "--steps 3 --quadric-finish --quadric-k 40 --quadric-angle 25");

@@ -109,7 +109,7 @@ TEST_F(KillResumeTest, CompensatedRunWithPlateauStopKilledAndResumedIsBitIdentic
   const io::PointTable cloud = test::noisy_cube(12000, 22);
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 2000}));
   kill_and_resume({"--steps", "40", "--shrink-compensation", "1", "--stop-plateau", "0.1", "--stop-lambda-ratio",
-                   "0", "--threads", "2", "--quiet"});
+                   "0", "--no-quadric-finish", "--threads", "2", "--quiet"});
   SmoothParams params;
   params.steps = 40;
   params.shrink_compensation = 1.0;

@@ -23,9 +23,9 @@ struct OutputOptions {
   int threads = 0;
 };
 
-/// The pass after the flow (quadric_projection.hpp): off by default, and with --paper.
+/// The pass after the flow (quadric_projection.hpp): on by default, off with --paper.
 struct FinishOptions {
-  bool quadric = false;
+  bool quadric = true;
   QuadricProjectionParams quadric_params;
 };
 

@@ -45,7 +45,8 @@ class MpiRunTest : public test::TempDirTest {
     cmd << "env OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 "
         << "OMPI_MCA_btl_vader_single_copy_mechanism=none "
         << env << " timeout -k 5 60 " << POINTFAIR_MPIEXEC << " --oversubscribe -np " << ranks << " " << POINTFAIR_MPI_EXE
-        << " smooth " << path("in.h5") << " " << path(out) << " --steps " << params_.steps << method_ << " --threads 1"
+        << " smooth " << path("in.h5") << " " << path(out) << " --steps " << params_.steps << method_
+        << (finish_ ? "" : " --no-quadric-finish") << " --threads 1"
         << (resume ? " --resume" : "") << " > " << path("log.txt") << " 2>&1";
     const auto t0 = std::chrono::steady_clock::now();
     const int status = std::system(cmd.str().c_str());
