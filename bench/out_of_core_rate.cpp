@@ -65,6 +65,7 @@ OutOfCoreRate OutOfCoreBench::run(const SmoothParams& params, const std::vector<
   rate.tiles = report.tiles;
   rate.neighbors_cached = report.neighbors_cached;
   rate.positions_held = report.positions_held;
+  rate.halo_scratch = report.halo_scratch;
   rate.tiles_in_flight = report.tiles_in_flight;
   if (!expected.empty()) {
     const io::PointTable result = tiles::read_container(output, {.original_order = true, .result_positions = true});
@@ -118,6 +119,7 @@ OutOfCoreSection measure_out_of_core(const std::vector<Vec3>& cloud, int k, int 
         if (out.checked) identical = identical && out.identical;
         section.neighbors_cached = out.neighbors_cached;
         section.positions_held = out.positions_held;
+        section.halo_scratch = out.halo_scratch;
         section.tiles_in_flight = out.tiles_in_flight;
         in_rates.push_back(in_rate);
         out_rates.push_back(out.point_steps_per_second);
@@ -133,13 +135,13 @@ OutOfCoreSection measure_out_of_core(const std::vector<Vec3>& cloud, int k, int 
 
 void print_out_of_core(const OutOfCoreSection& s) {
   std::printf("  out of core (container of %zu tiles of at most %llu points, --memory-budget %lluM, "
-              "temporal block %d%s; lists %s, positions %s, %d tiles in flight), paired with in core:\n",
+              "temporal block %d%s; lists %s, positions %s%s, %d tiles in flight), paired with in core:\n",
               s.tiles, static_cast<unsigned long long>(s.tile_points),
               static_cast<unsigned long long>(s.options.memory_budget >> 20), s.options.temporal_block,
               s.lambda_once ? ", lambda measured once in both runs" : "",
               s.neighbors_cached ? "kept in memory" : "re-read every step",
               s.positions_held ? "kept in memory (every step still written and committed)" : "re-read every step",
-              s.tiles_in_flight);
+              s.halo_scratch ? ", halos from the halo scratch" : "", s.tiles_in_flight);
   for (const OutOfCoreRow& row : s.rows)
     std::printf("  %-5s step, %d thread%s  %10.3g point-steps/s out of core, %10.3g in core: %3.0f%%%s\n",
                 row.flow.c_str(), row.threads, row.threads > 1 ? "s" : " ", row.out_of_core, row.in_core,
@@ -157,6 +159,7 @@ std::string out_of_core_json(const OutOfCoreSection& s, const std::string& name)
                      ", \"lambda_schedule\": \"" + (s.lambda_once ? "once" : "every_step") + "\"" +
                      ", \"neighbors_cached\": " + (s.neighbors_cached ? "true" : "false") +
                      ", \"positions_held\": " + (s.positions_held ? "true" : "false") +
+                     ", \"halo_scratch\": " + (s.halo_scratch ? "true" : "false") +
                      ", \"tiles_in_flight\": " + std::to_string(s.tiles_in_flight) + ", \"steps_per_flow\": [";
   for (std::size_t i = 0; i < s.rows.size(); ++i) {
     const OutOfCoreRow& r = s.rows[i];

@@ -32,6 +32,8 @@ struct OutOfCoreRate {
   int tiles_in_flight = 0;
   /// Whether the steps' positions stayed in memory too (OutOfCoreReport::positions_held).
   bool positions_held = false;
+  /// Whether streamed steps read their halos from the halo scratch (OutOfCoreReport::halo_scratch).
+  bool halo_scratch = false;
   /// The run's final positions equal smooth()'s on the same cloud to the bit (when checked).
   bool checked = false;
   bool identical = false;
@@ -55,6 +57,7 @@ struct OutOfCoreSection {
   std::size_t tiles = 0;
   bool neighbors_cached = false;
   bool positions_held = false;
+  bool halo_scratch = false;
   int tiles_in_flight = 0;
   /// The automatic lambda measured once rather than every step, in both runs of every pair:
   /// temporal blocks (temporal_block > 1) need a lambda that stays fixed between steps.

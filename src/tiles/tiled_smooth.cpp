@@ -29,6 +29,7 @@
 #include "pointfair/tiles/pipeline.hpp"
 #include "pointfair/tiles/ranks.hpp"
 #include "pointfair/version.hpp"
+#include "halo_scratch.hpp"
 #include "row_map.hpp"
 
 namespace pointfair::tiles {
@@ -286,11 +287,18 @@ class Run {
   double sample_lambda() const;
   void load_sample_positions(const h5::Dataset& positions);
   TileNeighbors tile_neighbors(std::size_t t) const;
-  std::shared_ptr<const TileNeighbors> neighbors_of(std::size_t t);
+  // Tile t's lists: cached, or read into `storage` (when given: its buffers are reused).
+  std::shared_ptr<const TileNeighbors> neighbors_of(std::size_t t, std::shared_ptr<TileNeighbors> storage = {});
+  // The scratch of streamed steps' halos (HaloScratch), made once every tile's halo is known;
+  // null when off or not possible.
+  HaloScratch* streamed_halos();
   void prepare_lists(OutOfCoreReport& report);
   std::size_t pipeline_slots(std::uint64_t fixed);
+  // Tile t's positions (and halo) of `source`; the halo from buffer `halo_buffer` of the halo
+  // scratch when it is 0 or 1.
   void read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
-                           std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder = true) const;
+                           std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder = true,
+                           int halo_buffer = -1) const;
   bool run_steps(OutOfCoreReport& report);
   void hold_positions();
   void load_held(const h5::Dataset& source);
@@ -305,7 +313,7 @@ class Run {
   void finish(std::size_t attributes_degenerate, double lambda);
   void account(std::uint64_t working);
   std::uint64_t persistent_bytes() const {
-    return cache_bytes_ + halo_bytes_ + bytes(halo_rows_) + bytes(tiles_.offsets) + bytes(tiles_.bounds) + bytes(sample_rows_) +
+    return cache_bytes_ + halo_bytes_ + bytes(halo_rows_) + (halo_scratch_ ? halo_scratch_->bytes() : 0) + bytes(tiles_.offsets) + bytes(tiles_.bounds) + bytes(sample_rows_) +
            bytes(sample_neighbors_) + bytes(sample_counts_) + bytes(sample_local_) + bytes(gather_rows_) +
            bytes(gather_positions_) + held_bytes_;
   }
@@ -392,6 +400,11 @@ class Run {
   std::vector<char> local_written_;
   std::vector<std::vector<std::uint64_t>> halo_rows_;
   std::uint64_t halo_bytes_ = 0;
+  // Streamed steps' halos (streamed_halos), and whether buffer b of it holds the halos of
+  // positions_buffer(b) as it now is.
+  std::unique_ptr<HaloScratch> halo_scratch_;
+  std::array<bool, 2> scratch_holds_{};
+  bool scratch_refused_ = false;
   bool caching_ = true;
   // Whether the run file has kLocalOrder (tile lists in Morton order, see TileNeighbors).
   bool local_order_ = false;
@@ -980,7 +993,11 @@ void Run::measure_bounds() {
 
 void Run::rebuild_neighbors(int step) {
   // smooth()'s rebuild: eps resolved again and the lists built from the step's positions,
-  // over the same tiles with a geometric halo around their current bounds.
+  // over the same tiles with a geometric halo around their current bounds. The halo scratch
+  // is of the old halos (made again for the new ones by the next streamed step).
+  halo_scratch_.reset();
+  scratch_holds_ = {};
+  scratch_refused_ = false;
   neighbor_source_ = current_source();
   measure_bounds();
   build_neighbors(step);
@@ -1127,10 +1144,12 @@ TileNeighbors Run::tile_neighbors(std::size_t t) const {
   return nb;
 }
 
-std::shared_ptr<const TileNeighbors> Run::neighbors_of(std::size_t t) {
+std::shared_ptr<const TileNeighbors> Run::neighbors_of(std::size_t t, std::shared_ptr<TileNeighbors> storage) {
   if (caching_ && cache_[t]) return cache_[t];
   const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
-  auto nb = std::make_shared<TileNeighbors>();
+  // Lists read again every step: into the caller's storage, whose buffers keep their capacity
+  // (a fresh one costs a zero fill of every list a step).
+  auto nb = storage && local_written_[t] ? std::move(storage) : std::make_shared<TileNeighbors>();
   if (local_written_[t]) {
     // Lists in tile-local indices, written by this process's first pass: no remapping.
     nb->local.stride = k();
@@ -1146,6 +1165,7 @@ std::shared_ptr<const TileNeighbors> Run::neighbors_of(std::size_t t) {
       for (std::size_t s = 0; s < rows; ++s) nb->local.counts[s] = by_row[nb->order[s]];
     }
     nb->halo_rows = halo_rows_[t];
+    if (local_written_[t] != 2) nb->order.clear();
     list_rows_read_ += rows;
     return nb;
   }
@@ -1199,7 +1219,8 @@ void Run::prepare_lists(OutOfCoreReport& report) {
 }
 
 void Run::read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
-                              std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder) const {
+                              std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder,
+                              int halo_buffer) const {
   const std::uint64_t rows = tiles_.rows(t);
   local.resize(rows + nb.halo_rows.size());
   if (nb.order.empty()) {
@@ -1211,7 +1232,33 @@ void Run::read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::
     source.read_rows(tiles_.offsets[t], rows, scratch.data()->data());
     if (reorder) nb.to_local(scratch, local, rows);
   }
-  if (!nb.halo_rows.empty()) source.read_selected(nb.halo_rows, local[rows].data());
+  if (nb.halo_rows.empty()) return;
+  if (halo_buffer >= 0) halo_scratch_->read(halo_buffer, t, &local[rows]);
+  else source.read_selected(nb.halo_rows, local[rows].data());
+}
+
+HaloScratch* Run::streamed_halos() {
+  if (halo_scratch_) return halo_scratch_.get();
+  if (!options_.halo_scratch || scratch_refused_ || ranks_->size() > 1 || holding_ || blocks()) return nullptr;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t)
+    if (tiles_.rows(t) > 0 && !local_written_[t]) return nullptr;
+  scratch_refused_ = true;  // unless made below
+  fs::path directory = output_.parent_path();
+  if (directory.empty()) directory = ".";
+  try {
+    halo_scratch_ = std::make_unique<HaloScratch>(directory, output_.string() + " (halo scratch)", halo_rows_,
+                                                  tiles_.offsets, first_tile_, end_tile_);
+  } catch (const io::IoError&) {
+    return nullptr;  // the halos are read from the run file
+  }
+  // Its tables next to what the run keeps and the tiles in flight, or not at all.
+  if (persistent_bytes() + slots_ * (slot_estimate_ + slot_estimate_ / 2) > options_.memory_budget) {
+    halo_scratch_.reset();
+    return nullptr;
+  }
+  scratch_holds_ = {};
+  scratch_refused_ = false;
+  return halo_scratch_.get();
 }
 
 int Run::block_length(int step) const {
@@ -1556,6 +1603,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
   struct Slot {
     std::size_t tile = 0;
     std::shared_ptr<const TileNeighbors> nb;
+    std::shared_ptr<TileNeighbors> own;  // lists read for this slot, reused from tile to tile
     // With lists in Morton order (TileNeighbors::order), the tile's rows are read into `next`
     // (row order) and moved into `local`; the step writes `next`, moved back into the first
     // rows of `local` in row order.
@@ -1581,8 +1629,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
   const auto slots_bytes = [&] {
     std::uint64_t total = bytes(identity);
     for (const Slot& s : slots) {
-      total += bytes(s.local) + bytes(s.next);
-      if (s.nb && !(caching_ && cache_[s.tile] == s.nb)) total += s.nb->bytes();
+      total += bytes(s.local) + bytes(s.next) + (s.own ? s.own->bytes() : 0);
+      if (s.nb && s.nb != s.own && !(caching_ && cache_[s.tile] == s.nb)) total += s.nb->bytes();
     }
     return total;
   };
@@ -1670,6 +1718,9 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // halos copied in; each tile's compute then compensates from both.
     std::vector<StepStats> plain_stats(compensated() ? tiles_.size() : 0);
     bool updated_ready = false;
+    // Streamed steps: the halo scratch, and the buffer of it this step writes.
+    HaloScratch* halos = nullptr;
+    int written_halos = 0;
     if (blocks()) {
       stages.read = [&](std::size_t item, std::size_t slot) {
         read_block(work[item], block_depth(h), source, block_slots[slot]);
@@ -1779,11 +1830,21 @@ bool Run::run_steps(OutOfCoreReport& report) {
         s.nb.reset();
       };
     } else {
-    stages.read = [&](std::size_t item, std::size_t slot) {
+    // Streamed: each tile's halo from the halo scratch where it holds the source's (the
+    // previous step wrote it), else from the run file; the step writes the target's.
+    halos = streamed_halos();
+    written_halos = target_buffer();
+    int halos_from = -1;
+    for (int b = 0; halos != nullptr && b < 2; ++b)
+      if (scratch_holds_[static_cast<std::size_t>(b)] && current_source() == positions_buffer(b)) halos_from = b;
+    if (halos != nullptr) scratch_holds_[static_cast<std::size_t>(written_halos)] = false;
+    stages.read = [&, halos_from](std::size_t item, std::size_t slot) {
       Slot& s = slots[slot];
       s.tile = work[item];
-      s.nb = neighbors_of(s.tile);
-      read_tile_positions(s.tile, *s.nb, source, s.local, s.next, false);
+      // The slot's lists are reused from tile to tile unless they are the cache's.
+      if (!s.own) s.own = std::make_shared<TileNeighbors>();
+      s.nb = neighbors_of(s.tile, s.own);
+      read_tile_positions(s.tile, *s.nb, source, s.local, s.next, false, halos_from);
       rows_read_ += s.local.size();
       s.next.resize(tiles_.rows(s.tile));
       largest_local_ = std::max<std::uint64_t>(largest_local_, s.local.size());
@@ -1802,6 +1863,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       degenerate += s.stats.degenerate;
       const std::vector<Vec3>& result = s.result();
       target.write_rows(begin, rows, result.data()->data(), h5::Transfer::Collective);
+      if (halos != nullptr) halos->write(written_halos, s.tile, result.data());
       if (every_step) {
         auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
         for (; it != gather_rows_.end() && *it < begin + rows; ++it)
@@ -1831,6 +1893,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
     most_in_flight_ = std::max<std::uint64_t>(most_in_flight_, std::min(in_flight, work.size()));
     run_pipeline(work.size(), in_flight, stages);
     if (holding_) held_cur_ = 1 - held_cur_;
+    if (halos != nullptr) {
+      scratch_holds_[static_cast<std::size_t>(written_halos)] = true;
+      report.halo_scratch = true;
+    }
     // Collective writes: as many per rank as the rank with the most tiles.
     for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
     if (!blocks()) block_degenerate[0] = degenerate;
@@ -2144,6 +2210,8 @@ OutOfCoreReport Run::run() {
   const bool steps_done = run_steps(report);
   report.positions_held = holding_;
   release_positions();  // the finish and the attributes need the room
+  halo_scratch_.reset();
+  scratch_holds_ = {};
   const bool finish_done = steps_done && run_finish(report);
   if (!finish_done) {
     report.neighbors_cached = caching_;

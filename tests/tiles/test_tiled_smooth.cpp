@@ -215,6 +215,41 @@ TEST_F(TiledSmoothTest, PipelinedStepsGiveTheSameBits) {
   }
 }
 
+// Streamed steps read each tile's halo from the halo scratch the step before wrote (not on
+// the first step of a call, nor after a rebuild): the same bits with it and without, through
+// rebuilds, a stop and a resume; the scratch leaves no file behind.
+TEST_F(TiledSmoothTest, StreamedHalosFromTheScratchGiveTheSameBits) {
+  const io::PointTable cloud = test::noisy_cube(3000, 23);
+  SmoothParams params = few_steps(5);
+  params.shrink_compensation = 0.0;
+  params.rebuild_interval = 3;
+  const InCore ref = run_in_core(cloud, params);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 40}, 64));
+  for (const bool scratch : {true, false}) {
+    SCOPED_TRACE(scratch ? "halo scratch" : "halos from the run file");
+    OutOfCoreOptions options;
+    options.memory_budget = std::uint64_t{600} << 10;
+    options.halo_scratch = scratch;
+    const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, options);
+    EXPECT_FALSE(r.positions_held) << "not the case this test is for";
+    EXPECT_EQ(r.halo_scratch, scratch);
+    EXPECT_EQ(r.rebuilds, 1);
+    expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+    // Stopped after two steps, resumed: the resumed call's first step reads the run file.
+    options.stop_after_steps = 2;
+    EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
+    options.stop_after_steps = -1;
+    options.resume = true;
+    EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
+    expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+  }
+  std::vector<std::string> left;
+  for (const auto& e : std::filesystem::directory_iterator(dir_)) left.push_back(e.path().filename().string());
+  EXPECT_EQ(left, std::vector<std::string>{"in.h5"});
+}
+
 // --rebuild-every: the lists are built again from the current positions (eps resolved again,
 // halos around the tiles' current bounds), to the in-core bits, for every lambda policy; a
 // run interrupted around a rebuild resumes to the same bits.

@@ -88,6 +88,10 @@ int run_smooth_out_of_core(const Args& args) {
                "--shrink-compensation): less I/O per step, same result. Needs a fixed --lambda or "
                "--lambda-schedule once. Default 1.",
                [&](std::string_view v) { ooc.temporal_block = parse_int(v, "--temporal-block"); });
+  parser.flag("no-halo-scratch",
+              "Read each streamed step's halos from the run file rather than from a scratch file "
+              "beside OUT (unlinked; 48 bytes of disk per halo point): slower, same result.",
+              [&] { ooc.halo_scratch = false; });
   parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters).",
               [&] { ooc.resume = true; });
   add_output_options(parser, output, true);
@@ -203,6 +207,7 @@ int run_smooth_out_of_core(const Args& args) {
     j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
     j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));
     j.add("neighbors_cached", report.neighbors_cached).add("positions_held", report.positions_held);
+    j.add("halo_scratch", report.halo_scratch);
     j.add("tiles_in_flight", report.tiles_in_flight);
     j.add("rebuilds", report.rebuilds).add("temporal_block", ooc.temporal_block);
     // Bytes the steps read: positions (24 per row) and neighbour lists (4 k + 2 per row).

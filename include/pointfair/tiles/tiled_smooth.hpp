@@ -62,6 +62,13 @@ struct OutOfCoreOptions {
   /// that stays fixed between steps (a fixed lambda, or one measured once); blocks end at
   /// rebuilds. 1: one step per load. Results do not depend on it.
   int temporal_block = 1;
+  /// Streamed steps (single process, one step per load, positions not held) keep each tile's
+  /// halo in a scratch file beside the output, written by the tiles that hold its points, and
+  /// read it with one read a tile instead of a selection of scattered rows of the run file
+  /// (src/tiles/halo_scratch.hpp). Takes 48 bytes of disk per halo point, unlinked: nothing is
+  /// left behind. Off, or where the scratch cannot be made or does not fit in the budget: the
+  /// halos are read from the run file. Results do not depend on it.
+  bool halo_scratch = true;
   /// Build the first neighbourhoods from this cloud instead of the input (SmoothOptions::
   /// neighbor_reference): a point file or container with the same points in the input's
   /// original order. Its positions are copied into the run in row order, in passes over
@@ -106,6 +113,8 @@ struct OutOfCoreReport {
   /// every halo in this rank's tiles): each step still goes to the run file and is committed,
   /// but is read from the file by the first step only.
   bool positions_held = false;
+  /// Streamed steps read their halos from the scratch file (OutOfCoreOptions::halo_scratch).
+  bool halo_scratch = false;
   /// The largest working set the run accounted for (bytes), and the largest tile + halo.
   std::uint64_t peak_accounted_bytes = 0;
   std::uint64_t largest_tile_with_halo = 0;

@@ -1,0 +1,139 @@
+#include "halo_scratch.hpp"
+
+#include <fcntl.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
+#include "pointfair/io/point_table.hpp"
+#include "pointfair/params_error.hpp"
+
+namespace pointfair::tiles {
+
+namespace {
+
+// An unlinked file in `directory`: O_TMPFILE where the file system has it, else a named one
+// removed at once. -1 with errno set when neither works.
+int open_unlinked(const std::filesystem::path& directory) {
+#ifdef O_TMPFILE
+  const int fd = ::open(directory.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+  if (fd >= 0) return fd;
+#endif
+  std::string pattern = (directory / ".pointfair-halo-XXXXXX").string();
+  const int named = ::mkstemp(pattern.data());
+  if (named < 0) return -1;
+  ::unlink(pattern.c_str());
+  ::fcntl(named, F_SETFD, FD_CLOEXEC);
+  return named;
+}
+
+}  // namespace
+
+HaloScratch::HaloScratch(const std::filesystem::path& directory, std::string name,
+                         std::span<const std::vector<std::uint64_t>> halo_rows, std::span<const std::uint64_t> offsets,
+                         std::size_t first_tile, std::size_t end_tile)
+    : name_(std::move(name)), first_tile_(first_tile) {
+  require(first_tile <= end_tile && end_tile < offsets.size() && end_tile <= halo_rows.size(),
+          "halo scratch: tiles out of range");
+  const std::size_t tiles = end_tile - first_tile;
+  halo_begin_.assign(tiles + 1, 0);
+  for (std::size_t i = 0; i < tiles; ++i) halo_begin_[i + 1] = halo_begin_[i] + halo_rows[first_tile + i].size();
+  total_ = halo_begin_.back();
+
+  // Each tile's halo, cut where the owning tile changes (the rows ascend, so each owner's rows
+  // are one piece), and the pieces grouped by owner.
+  struct Piece {
+    std::size_t owner = 0;
+    std::uint64_t at = 0;          // first row in the buffer
+    const std::uint64_t* rows = nullptr;
+    std::uint64_t count = 0;
+  };
+  std::vector<Piece> pieces;
+  const std::uint64_t lowest = offsets[first_tile], end = offsets[end_tile];
+  for (std::size_t i = 0; i < tiles; ++i) {
+    const std::vector<std::uint64_t>& halo = halo_rows[first_tile + i];
+    for (std::size_t j = 0; j < halo.size(); ++j)
+      require(halo[j] >= lowest && halo[j] < end && (j == 0 || halo[j] > halo[j - 1]),
+              "halo scratch: halo rows out of range or order");
+    for (std::size_t j = 0; j < halo.size();) {
+      const std::uint64_t g = halo[j];
+      const std::size_t owner =
+          static_cast<std::size_t>(std::upper_bound(offsets.begin(), offsets.end(), g) - offsets.begin()) - 1;
+      std::size_t k = j + 1;
+      while (k < halo.size() && halo[k] < offsets[owner + 1]) ++k;
+      pieces.push_back({owner, halo_begin_[i] + j, halo.data() + j, k - j});
+      j = k;
+    }
+  }
+  std::stable_sort(pieces.begin(), pieces.end(), [](const Piece& a, const Piece& b) { return a.owner < b.owner; });
+  runs_begin_.assign(tiles + 1, 0);
+  runs_.reserve(pieces.size());
+  picks_.reserve(total_);
+  for (const Piece& p : pieces) {
+    ++runs_begin_[p.owner - first_tile + 1];
+    runs_.push_back({p.at, picks_.size(), p.count});
+    for (std::uint64_t r = 0; r < p.count; ++r) picks_.push_back(static_cast<Index>(p.rows[r] - offsets[p.owner]));
+  }
+  for (std::size_t i = 0; i < tiles; ++i) runs_begin_[i + 1] += runs_begin_[i];
+
+  fd_ = open_unlinked(directory);
+  if (fd_ < 0) throw io::IoError(name_ + ": cannot create: " + std::strerror(errno));
+  // Both buffers' room now, so that a full disk shows here rather than in a step.
+  if (total_ > 0) {
+    const int e = ::posix_fallocate(fd_, 0, static_cast<off_t>(2 * buffer_bytes()));
+    if (e != 0) {
+      ::close(fd_);
+      fd_ = -1;
+      throw io::IoError(name_ + ": cannot allocate " + std::to_string(2 * buffer_bytes()) + " bytes: " + std::strerror(e));
+    }
+  }
+}
+
+HaloScratch::~HaloScratch() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+std::uint64_t HaloScratch::bytes() const {
+  return (halo_begin_.capacity() + runs_begin_.capacity()) * sizeof(std::uint64_t) + runs_.capacity() * sizeof(Run) +
+         picks_.capacity() * sizeof(Index) + kStagingPoints * sizeof(Vec3);
+}
+
+void HaloScratch::transfer(bool reading, void* data, std::uint64_t bytes, std::uint64_t offset) const {
+  auto* p = static_cast<unsigned char*>(data);
+  while (bytes > 0) {
+    const ssize_t n = reading ? ::pread(fd_, p, bytes, static_cast<off_t>(offset))
+                              : ::pwrite(fd_, p, bytes, static_cast<off_t>(offset));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw io::IoError(name_ + ": " + (reading ? "read" : "write") + " failed: " + std::strerror(errno));
+    if (n == 0) throw io::IoError(name_ + ": " + (reading ? "read" : "write") + " ended early");
+    p += n;
+    bytes -= static_cast<std::uint64_t>(n);
+    offset += static_cast<std::uint64_t>(n);
+  }
+}
+
+void HaloScratch::read(int b, std::size_t t, Vec3* out) const {
+  const std::size_t i = t - first_tile_;
+  const std::uint64_t first = halo_begin_[i], count = halo_begin_[i + 1] - first;
+  transfer(true, out, count * sizeof(Vec3), static_cast<std::uint64_t>(b) * buffer_bytes() + first * sizeof(Vec3));
+}
+
+void HaloScratch::write(int b, std::size_t u, const Vec3* rows) {
+  const std::size_t i = u - first_tile_;
+  for (std::uint64_t r = runs_begin_[i]; r < runs_begin_[i + 1]; ++r) {
+    const Run& run = runs_[r];
+    for (std::uint64_t done = 0; done < run.count;) {
+      const std::uint64_t n = std::min<std::uint64_t>(run.count - done, kStagingPoints);
+      staging_.resize(std::max<std::size_t>(staging_.size(), n));
+      for (std::uint64_t j = 0; j < n; ++j) staging_[j] = rows[picks_[run.first + done + j]];
+      transfer(false, staging_.data(), n * sizeof(Vec3),
+               static_cast<std::uint64_t>(b) * buffer_bytes() + (run.at + done) * sizeof(Vec3));
+      done += n;
+    }
+  }
+}
+
+}  // namespace pointfair::tiles
