@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <limits>
 
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/params_error.hpp"
@@ -34,7 +35,7 @@ int open_unlinked(const std::filesystem::path& directory) {
 
 HaloScratch::HaloScratch(const std::filesystem::path& directory, std::string name,
                          std::span<const std::vector<std::uint64_t>> halo_rows, std::span<const std::uint64_t> offsets,
-                         std::size_t first_tile, std::size_t end_tile)
+                         std::size_t first_tile, std::size_t end_tile, const OrderOf& order_of)
     : name_(std::move(name)), first_tile_(first_tile) {
   require(first_tile <= end_tile && end_tile < offsets.size() && end_tile <= halo_rows.size(),
           "halo scratch: tiles out of range");
@@ -78,6 +79,26 @@ HaloScratch::HaloScratch(const std::filesystem::path& directory, std::string nam
     for (std::uint64_t r = 0; r < p.count; ++r) picks_.push_back(static_cast<Index>(p.rows[r] - offsets[p.owner]));
   }
   for (std::size_t i = 0; i < tiles; ++i) runs_begin_[i + 1] += runs_begin_[i];
+  // Picks as indices into the order write() is given each tile's points in.
+  if (order_of) {
+    std::vector<Index> slot_of;
+    for (std::size_t i = 0; i < tiles; ++i) {
+      if (runs_begin_[i] == runs_begin_[i + 1]) continue;
+      const std::size_t u = first_tile + i;
+      const std::vector<Index> order = order_of(u);
+      if (order.empty()) continue;
+      const std::uint64_t rows = offsets[u + 1] - offsets[u];
+      require(order.size() == rows, "halo scratch: an order of the wrong length");
+      slot_of.assign(rows, std::numeric_limits<Index>::max());
+      for (std::size_t s = 0; s < rows; ++s) {
+        require(order[s] < rows && slot_of[order[s]] == std::numeric_limits<Index>::max(),
+                "halo scratch: an order that is not a permutation");
+        slot_of[order[s]] = static_cast<Index>(s);
+      }
+      for (std::uint64_t r = runs_begin_[i]; r < runs_begin_[i + 1]; ++r)
+        for (std::uint64_t j = 0; j < runs_[r].count; ++j) picks_[runs_[r].first + j] = slot_of[picks_[runs_[r].first + j]];
+    }
+  }
 
   fd_ = open_unlinked(directory);
   if (fd_ < 0) throw io::IoError(name_ + ": cannot create: " + std::strerror(errno));
@@ -121,14 +142,14 @@ void HaloScratch::read(int b, std::size_t t, Vec3* out) const {
   transfer(true, out, count * sizeof(Vec3), static_cast<std::uint64_t>(b) * buffer_bytes() + first * sizeof(Vec3));
 }
 
-void HaloScratch::write(int b, std::size_t u, const Vec3* rows) {
+void HaloScratch::write(int b, std::size_t u, const Vec3* points) {
   const std::size_t i = u - first_tile_;
   for (std::uint64_t r = runs_begin_[i]; r < runs_begin_[i + 1]; ++r) {
     const Run& run = runs_[r];
     for (std::uint64_t done = 0; done < run.count;) {
       const std::uint64_t n = std::min<std::uint64_t>(run.count - done, kStagingPoints);
       staging_.resize(std::max<std::size_t>(staging_.size(), n));
-      for (std::uint64_t j = 0; j < n; ++j) staging_[j] = rows[picks_[run.first + done + j]];
+      for (std::uint64_t j = 0; j < n; ++j) staging_[j] = points[picks_[run.first + done + j]];
       transfer(false, staging_.data(), n * sizeof(Vec3),
                static_cast<std::uint64_t>(b) * buffer_bytes() + (run.at + done) * sizeof(Vec3));
       done += n;

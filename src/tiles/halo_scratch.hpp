@@ -16,6 +16,7 @@
 // Internal: not installed.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <span>
 #include <string>
 #include <vector>
@@ -28,20 +29,24 @@ class HaloScratch {
  public:
   /// `halo_rows[t]`: tile t's halo rows (ascending container rows, none of its own), for
   /// the tiles [first_tile, end_tile) whose rows `offsets` (the tile table's) delimit; the
-  /// halos may only name rows of those tiles. The scratch file goes into `directory`;
-  /// `name` is what errors call it. Throws io::IoError when it cannot be created.
+  /// halos may only name rows of those tiles. `order_of(u)`: the order in which tile u's
+  /// points are given to write() (entry s: the row offset in the tile of point s; empty: row
+  /// order), called once per tile here. The scratch file goes into `directory`; `name` is
+  /// what errors call it. Throws io::IoError when it cannot be created.
+  using OrderOf = std::function<std::vector<Index>(std::size_t tile)>;
   HaloScratch(const std::filesystem::path& directory, std::string name,
               std::span<const std::vector<std::uint64_t>> halo_rows, std::span<const std::uint64_t> offsets,
-              std::size_t first_tile, std::size_t end_tile);
+              std::size_t first_tile, std::size_t end_tile, const OrderOf& order_of = {});
   ~HaloScratch();
   HaloScratch(const HaloScratch&) = delete;
   HaloScratch& operator=(const HaloScratch&) = delete;
 
   /// Tile t's halo in buffer b (0 or 1), into `out` (its halo_rows.size() points, in their order).
   void read(int b, std::size_t t, Vec3* out) const;
-  /// From tile u's positions in row order (`rows`, one per row of the tile), the points of it
-  /// that the halos name, into buffer b. Uses a staging buffer: one caller at a time.
-  void write(int b, std::size_t u, const Vec3* rows);
+  /// From tile u's positions (`points`, one per row of the tile, in the order order_of gave),
+  /// the points of it that the halos name, into buffer b. Uses a staging buffer: one caller
+  /// at a time.
+  void write(int b, std::size_t u, const Vec3* points);
   /// Bytes held in memory (the tables and the staging buffer at its largest).
   std::uint64_t bytes() const;
   /// Bytes of one buffer in the file.
@@ -63,7 +68,7 @@ class HaloScratch {
   std::vector<std::uint64_t> halo_begin_;   // tile t's halo: rows [halo_begin_[t], halo_begin_[t + 1])
   std::vector<std::uint64_t> runs_begin_;   // tile u's runs: runs_[runs_begin_[u] .. runs_begin_[u + 1])
   std::vector<Run> runs_;
-  std::vector<Index> picks_;                // a run's points: rows of its tile, from the tile's first
+  std::vector<Index> picks_;                // a run's points: indices into write()'s `points`
   std::vector<Vec3> staging_;
 };
 

@@ -292,13 +292,21 @@ class Run {
   // The scratch of streamed steps' halos (HaloScratch), made once every tile's halo is known;
   // null when off or not possible.
   HaloScratch* streamed_halos();
+  // Every tile's lists have an order (TileNeighbors::order, in kLocalOrder).
+  bool streamed_lists_ordered() const {
+    for (std::size_t t = first_tile_; t < end_tile_; ++t)
+      if (tiles_.rows(t) > 0 && local_written_[t] != 2) return false;
+    return true;
+  }
   void prepare_lists(OutOfCoreReport& report);
   std::size_t pipeline_slots(std::uint64_t fixed);
-  // Tile t's positions (and halo) of `source`; the halo from buffer `halo_buffer` of the halo
-  // scratch when it is 0 or 1.
+  // Tile t's positions (and halo) of `source` into `local` in the lists' order: the tile's
+  // rows read into `scratch` and moved (here when `reorder`, else by the caller), or read as
+  // they are when the source holds them in the lists' order (`listed`). The halo from buffer
+  // `halo_buffer` of the halo scratch when it is 0 or 1.
   void read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
                            std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder = true,
-                           int halo_buffer = -1) const;
+                           int halo_buffer = -1, bool listed = false) const;
   bool run_steps(OutOfCoreReport& report);
   void hold_positions();
   void load_held(const h5::Dataset& source);
@@ -1116,7 +1124,7 @@ TileNeighbors Run::tile_neighbors(std::size_t t) const {
               : static_cast<Index>(rows + static_cast<std::uint64_t>(std::lower_bound(nb.halo_rows.begin(), nb.halo_rows.end(), g) -
                                                                      nb.halo_rows.begin()));
     }
-  if (local_order_ && caching_) {
+  if (local_order_) {
     // While the lists are kept in memory (the steps are then fast enough for the order to
     // matter; the budget is not tight): the tile's points in the Morton order of their input
     // positions, the halo after them. The input, not the current step's positions: lists built
@@ -1220,10 +1228,10 @@ void Run::prepare_lists(OutOfCoreReport& report) {
 
 void Run::read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
                               std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder,
-                              int halo_buffer) const {
+                              int halo_buffer, bool listed) const {
   const std::uint64_t rows = tiles_.rows(t);
   local.resize(rows + nb.halo_rows.size());
-  if (nb.order.empty()) {
+  if (nb.order.empty() || listed) {
     source.read_rows(tiles_.offsets[t], rows, local.data()->data());
   } else {
     // The tile's rows into `scratch`, in row order; into `local` by nb.to_local (here when
@@ -1245,9 +1253,18 @@ HaloScratch* Run::streamed_halos() {
   scratch_refused_ = true;  // unless made below
   fs::path directory = output_.parent_path();
   if (directory.empty()) directory = ".";
+  // The steps give the scratch each tile's points in the order of its lists.
+  const auto order_of = [this](std::size_t u) {
+    std::vector<Index> order;
+    if (local_written_[u] == 2) {
+      order.resize(tiles_.rows(u));
+      file().dataset(kLocalOrder).read_rows(tiles_.offsets[u], tiles_.rows(u), order.data());
+    }
+    return order;
+  };
   try {
     halo_scratch_ = std::make_unique<HaloScratch>(directory, output_.string() + " (halo scratch)", halo_rows_,
-                                                  tiles_.offsets, first_tile_, end_tile_);
+                                                  tiles_.offsets, first_tile_, end_tile_, order_of);
   } catch (const io::IoError&) {
     return nullptr;  // the halos are read from the run file
   }
@@ -1604,6 +1621,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
     std::size_t tile = 0;
     std::shared_ptr<const TileNeighbors> nb;
     std::shared_ptr<TileNeighbors> own;  // lists read for this slot, reused from tile to tile
+    // A streamed step: `local` was read in the lists' order (a source in list order), and
+    // where row r of the tile sits in it (for the lambda sample of a step written in list order).
+    bool read_in_list_order = false;
+    std::vector<Index> slot_of;
     // With lists in Morton order (TileNeighbors::order), the tile's rows are read into `next`
     // (row order) and moved into `local`; the step writes `next`, moved back into the first
     // rows of `local` in row order.
@@ -1629,7 +1650,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
   const auto slots_bytes = [&] {
     std::uint64_t total = bytes(identity);
     for (const Slot& s : slots) {
-      total += bytes(s.local) + bytes(s.next) + (s.own ? s.own->bytes() : 0);
+      total += bytes(s.local) + bytes(s.next) + bytes(s.slot_of) + (s.own ? s.own->bytes() : 0);
       if (s.nb && s.nb != s.own && !(caching_ && cache_[s.tile] == s.nb)) total += s.nb->bytes();
     }
     return total;
@@ -1710,6 +1731,12 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // step, nor one before a rebuild, which write row order as they go instead of after.
     const bool list_order_step = !blocks() && holding_ && held_list_order_ && step + 1 < params_.steps &&
                                  !rebuild_due(step + 1);
+    // Streamed steps write list order too, on the same terms, while the halo scratch carries
+    // the halos (the run file's rows of a halo are then not in row order) and every tile's
+    // lists have an order; the slots then hold no copy of a tile in row order.
+    HaloScratch* const halos = !blocks() && !holding_ ? streamed_halos() : nullptr;
+    const bool streamed_list_order = halos != nullptr && streamed_lists_ordered() && step + 1 < params_.steps &&
+                                     !rebuild_due(step + 1);
     std::vector<std::size_t> block_degenerate(static_cast<std::size_t>(h), 0);
     std::size_t degenerate = 0;
     PipelineStages stages;
@@ -1718,9 +1745,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // halos copied in; each tile's compute then compensates from both.
     std::vector<StepStats> plain_stats(compensated() ? tiles_.size() : 0);
     bool updated_ready = false;
-    // Streamed steps: the halo scratch, and the buffer of it this step writes.
-    HaloScratch* halos = nullptr;
-    int written_halos = 0;
+    // Streamed steps: the buffer of the halo scratch this step writes.
+    const int written_halos = target_buffer();
     if (blocks()) {
       stages.read = [&](std::size_t item, std::size_t slot) {
         read_block(work[item], block_depth(h), source, block_slots[slot]);
@@ -1832,19 +1858,21 @@ bool Run::run_steps(OutOfCoreReport& report) {
     } else {
     // Streamed: each tile's halo from the halo scratch where it holds the source's (the
     // previous step wrote it), else from the run file; the step writes the target's.
-    halos = streamed_halos();
-    written_halos = target_buffer();
     int halos_from = -1;
     for (int b = 0; halos != nullptr && b < 2; ++b)
       if (scratch_holds_[static_cast<std::size_t>(b)] && current_source() == positions_buffer(b)) halos_from = b;
     if (halos != nullptr) scratch_holds_[static_cast<std::size_t>(written_halos)] = false;
-    stages.read = [&, halos_from](std::size_t item, std::size_t slot) {
+    // A source in list order was written by the previous step of this call, with the halos.
+    const bool source_listed = source_in_list_order();
+    require(!source_listed || halos_from >= 0, "a streamed step in list order without its halos");
+    stages.read = [&, halos_from, source_listed](std::size_t item, std::size_t slot) {
       Slot& s = slots[slot];
       s.tile = work[item];
       // The slot's lists are reused from tile to tile unless they are the cache's.
       if (!s.own) s.own = std::make_shared<TileNeighbors>();
       s.nb = neighbors_of(s.tile, s.own);
-      read_tile_positions(s.tile, *s.nb, source, s.local, s.next, false, halos_from);
+      s.read_in_list_order = source_listed && !s.nb->order.empty();
+      read_tile_positions(s.tile, *s.nb, source, s.local, s.next, false, halos_from, s.read_in_list_order);
       rows_read_ += s.local.size();
       s.next.resize(tiles_.rows(s.tile));
       largest_local_ = std::max<std::uint64_t>(largest_local_, s.local.size());
@@ -1852,22 +1880,35 @@ bool Run::run_steps(OutOfCoreReport& report) {
     };
     stages.compute = [&](std::size_t slot) {
       Slot& s = slots[slot];
-      if (!s.nb->order.empty()) s.nb->to_local(s.next, s.local, s.next.size());
-      s.stats = euler_step(s.local, s.nb->local, std::span<const Index>(identity.data(), s.next.size()),
-                           params_.flow, lambda, s.next);
-      if (!s.nb->order.empty()) s.nb->to_rows(s.next, s.local, s.next.size());
+      const std::size_t rows = s.next.size();
+      const std::vector<Index>& order = s.nb->order;
+      if (!order.empty() && !s.read_in_list_order) s.nb->to_local(s.next, s.local, rows);
+      s.stats = euler_step(s.local, s.nb->local, std::span<const Index>(identity.data(), rows), params_.flow,
+                           lambda, s.next);
+      if (order.empty()) return;
+      if (!streamed_list_order) {
+        s.nb->to_rows(s.next, s.local, rows);
+      } else if (every_step) {
+        s.slot_of.resize(rows);
+        parallel_for(rows, [&](std::size_t b, std::size_t e) {
+          for (std::size_t i = b; i < e; ++i) s.slot_of[order[i]] = static_cast<Index>(i);
+        }, 8192);
+      }
     };
     stages.write = [&](std::size_t, std::size_t slot) {
       Slot& s = slots[slot];
       const std::uint64_t begin = tiles_.offsets[s.tile], rows = tiles_.rows(s.tile);
       degenerate += s.stats.degenerate;
-      const std::vector<Vec3>& result = s.result();
+      // `next`: the step in the lists' order (row order for a tile without one).
+      const bool listed = streamed_list_order && !s.nb->order.empty();
+      const std::vector<Vec3>& result = listed ? s.next : s.result();
       target.write_rows(begin, rows, result.data()->data(), h5::Transfer::Collective);
-      if (halos != nullptr) halos->write(written_halos, s.tile, result.data());
+      if (halos != nullptr) halos->write(written_halos, s.tile, s.next.data());
       if (every_step) {
         auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
         for (; it != gather_rows_.end() && *it < begin + rows; ++it)
-          gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = result[*it - begin];
+          gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] =
+              result[listed ? s.slot_of[*it - begin] : *it - begin];
       }
       s.nb.reset();  // lists that are not cached are freed with their tile
     };
@@ -1915,7 +1956,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     }
     step += h;
     state_[kCompletedSteps] = step;
-    state_[kStepBuffer] = target_code(list_order_step);
+    state_[kStepBuffer] = target_code(list_order_step || streamed_list_order);
     committed_here += h;
     const bool stopping = options_.stop_after_steps >= 0 && committed_here >= options_.stop_after_steps;
     if (ranks_->size() == 1 && step < params_.steps && !stopping) {
