@@ -1,12 +1,6 @@
 #include "halo_scratch.hpp"
 
-#include <fcntl.h>
-#include <stdlib.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
-#include <cstring>
 #include <limits>
 
 #include "pointfair/io/point_table.hpp"
@@ -14,29 +8,10 @@
 
 namespace pointfair::tiles {
 
-namespace {
-
-// An unlinked file in `directory`: O_TMPFILE where the file system has it, else a named one
-// removed at once. -1 with errno set when neither works.
-int open_unlinked(const std::filesystem::path& directory) {
-#ifdef O_TMPFILE
-  const int fd = ::open(directory.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
-  if (fd >= 0) return fd;
-#endif
-  std::string pattern = (directory / ".pointfair-halo-XXXXXX").string();
-  const int named = ::mkstemp(pattern.data());
-  if (named < 0) return -1;
-  ::unlink(pattern.c_str());
-  ::fcntl(named, F_SETFD, FD_CLOEXEC);
-  return named;
-}
-
-}  // namespace
-
 HaloScratch::HaloScratch(const std::filesystem::path& directory, std::string name,
                          std::span<const std::vector<std::uint64_t>> halo_rows, std::span<const std::uint64_t> offsets,
                          std::size_t first_tile, std::size_t end_tile, const OrderOf& order_of)
-    : name_(std::move(name)), first_tile_(first_tile) {
+    : file_(directory, std::move(name)), first_tile_(first_tile) {
   require(first_tile <= end_tile && end_tile < offsets.size() && end_tile <= halo_rows.size(),
           "halo scratch: tiles out of range");
   const std::size_t tiles = end_tile - first_tile;
@@ -100,21 +75,8 @@ HaloScratch::HaloScratch(const std::filesystem::path& directory, std::string nam
     }
   }
 
-  fd_ = open_unlinked(directory);
-  if (fd_ < 0) throw io::IoError(name_ + ": cannot create: " + std::strerror(errno));
   // Both buffers' room now, so that a full disk shows here rather than in a step.
-  if (total_ > 0) {
-    const int e = ::posix_fallocate(fd_, 0, static_cast<off_t>(2 * buffer_bytes()));
-    if (e != 0) {
-      ::close(fd_);
-      fd_ = -1;
-      throw io::IoError(name_ + ": cannot allocate " + std::to_string(2 * buffer_bytes()) + " bytes: " + std::strerror(e));
-    }
-  }
-}
-
-HaloScratch::~HaloScratch() {
-  if (fd_ >= 0) ::close(fd_);
+  file_.reserve(2 * buffer_bytes());
 }
 
 std::uint64_t HaloScratch::bytes() const {
@@ -122,24 +84,10 @@ std::uint64_t HaloScratch::bytes() const {
          picks_.capacity() * sizeof(Index) + kStagingPoints * sizeof(Vec3);
 }
 
-void HaloScratch::transfer(bool reading, void* data, std::uint64_t bytes, std::uint64_t offset) const {
-  auto* p = static_cast<unsigned char*>(data);
-  while (bytes > 0) {
-    const ssize_t n = reading ? ::pread(fd_, p, bytes, static_cast<off_t>(offset))
-                              : ::pwrite(fd_, p, bytes, static_cast<off_t>(offset));
-    if (n < 0 && errno == EINTR) continue;
-    if (n < 0) throw io::IoError(name_ + ": " + (reading ? "read" : "write") + " failed: " + std::strerror(errno));
-    if (n == 0) throw io::IoError(name_ + ": " + (reading ? "read" : "write") + " ended early");
-    p += n;
-    bytes -= static_cast<std::uint64_t>(n);
-    offset += static_cast<std::uint64_t>(n);
-  }
-}
-
 void HaloScratch::read(int b, std::size_t t, Vec3* out) const {
   const std::size_t i = t - first_tile_;
   const std::uint64_t first = halo_begin_[i], count = halo_begin_[i + 1] - first;
-  transfer(true, out, count * sizeof(Vec3), static_cast<std::uint64_t>(b) * buffer_bytes() + first * sizeof(Vec3));
+  file_.read(out, count * sizeof(Vec3), static_cast<std::uint64_t>(b) * buffer_bytes() + first * sizeof(Vec3));
 }
 
 void HaloScratch::write(int b, std::size_t u, const Vec3* points) {
@@ -150,8 +98,8 @@ void HaloScratch::write(int b, std::size_t u, const Vec3* points) {
       const std::uint64_t n = std::min<std::uint64_t>(run.count - done, kStagingPoints);
       staging_.resize(std::max<std::size_t>(staging_.size(), n));
       for (std::uint64_t j = 0; j < n; ++j) staging_[j] = points[picks_[run.first + done + j]];
-      transfer(false, staging_.data(), n * sizeof(Vec3),
-               static_cast<std::uint64_t>(b) * buffer_bytes() + (run.at + done) * sizeof(Vec3));
+      file_.write(staging_.data(), n * sizeof(Vec3),
+                  static_cast<std::uint64_t>(b) * buffer_bytes() + (run.at + done) * sizeof(Vec3));
       done += n;
     }
   }

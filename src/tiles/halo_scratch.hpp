@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "pointfair/types.hpp"
+#include "scratch_file.hpp"
 
 namespace pointfair::tiles {
 
@@ -37,7 +38,6 @@ class HaloScratch {
   HaloScratch(const std::filesystem::path& directory, std::string name,
               std::span<const std::vector<std::uint64_t>> halo_rows, std::span<const std::uint64_t> offsets,
               std::size_t first_tile, std::size_t end_tile, const OrderOf& order_of = {});
-  ~HaloScratch();
   HaloScratch(const HaloScratch&) = delete;
   HaloScratch& operator=(const HaloScratch&) = delete;
 
@@ -59,10 +59,8 @@ class HaloScratch {
     std::uint64_t first = 0, count = 0;
   };
   static constexpr std::uint64_t kStagingPoints = 1024;
-  void transfer(bool reading, void* data, std::uint64_t bytes, std::uint64_t offset) const;
 
-  std::string name_;
-  int fd_ = -1;
+  ScratchFile file_;
   std::size_t first_tile_ = 0;
   std::uint64_t total_ = 0;                 // halo rows of every tile: rows of one buffer
   std::vector<std::uint64_t> halo_begin_;   // tile t's halo: rows [halo_begin_[t], halo_begin_[t + 1])

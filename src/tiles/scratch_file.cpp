@@ -1,0 +1,70 @@
+#include "scratch_file.hpp"
+
+#include <fcntl.h>
+#include <stdlib.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+#include "pointfair/io/point_table.hpp"
+
+namespace pointfair::tiles {
+
+namespace {
+
+// An unlinked file in `directory`: O_TMPFILE where the file system has it, else a named one
+// removed at once. -1 with errno set when neither works.
+int open_unlinked(const std::filesystem::path& directory) {
+#ifdef O_TMPFILE
+  const int fd = ::open(directory.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+  if (fd >= 0) return fd;
+#endif
+  std::string pattern = (directory / ".pointfair-scratch-XXXXXX").string();
+  const int named = ::mkstemp(pattern.data());
+  if (named < 0) return -1;
+  ::unlink(pattern.c_str());
+  ::fcntl(named, F_SETFD, FD_CLOEXEC);
+  return named;
+}
+
+}  // namespace
+
+ScratchFile::ScratchFile(const std::filesystem::path& directory, std::string name) : name_(std::move(name)) {
+  fd_ = open_unlinked(directory);
+  if (fd_ < 0) throw io::IoError(name_ + ": cannot create: " + std::strerror(errno));
+}
+
+ScratchFile::~ScratchFile() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void ScratchFile::reserve(std::uint64_t bytes) {
+  if (bytes == 0) return;
+  const int e = ::posix_fallocate(fd_, 0, static_cast<off_t>(bytes));
+  if (e != 0) throw io::IoError(name_ + ": cannot allocate " + std::to_string(bytes) + " bytes: " + std::strerror(e));
+}
+
+void ScratchFile::read(void* data, std::uint64_t bytes, std::uint64_t offset) const {
+  transfer(true, data, bytes, offset);
+}
+
+void ScratchFile::write(const void* data, std::uint64_t bytes, std::uint64_t offset) {
+  transfer(false, const_cast<void*>(data), bytes, offset);
+}
+
+void ScratchFile::transfer(bool reading, void* data, std::uint64_t bytes, std::uint64_t offset) const {
+  auto* p = static_cast<unsigned char*>(data);
+  while (bytes > 0) {
+    const ssize_t n = reading ? ::pread(fd_, p, bytes, static_cast<off_t>(offset))
+                              : ::pwrite(fd_, p, bytes, static_cast<off_t>(offset));
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw io::IoError(name_ + ": " + (reading ? "read" : "write") + " failed: " + std::strerror(errno));
+    if (n == 0) throw io::IoError(name_ + ": " + (reading ? "read" : "write") + " ended early");
+    p += n;
+    bytes -= static_cast<std::uint64_t>(n);
+    offset += static_cast<std::uint64_t>(n);
+  }
+}
+
+}  // namespace pointfair::tiles

@@ -1,0 +1,33 @@
+#pragma once
+// A scratch file of a run: unlinked as soon as it is open, so that it leaves nothing behind
+// when the run ends or is killed, read and written at offsets (no HDF5). What a run keeps in
+// one is never needed to resume it. Internal: not installed.
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+namespace pointfair::tiles {
+
+class ScratchFile {
+ public:
+  /// A new file in `directory`; `name` is what errors call it. Throws io::IoError
+  /// "<name>: cannot create: <reason>".
+  ScratchFile(const std::filesystem::path& directory, std::string name);
+  ~ScratchFile();
+  ScratchFile(const ScratchFile&) = delete;
+  ScratchFile& operator=(const ScratchFile&) = delete;
+
+  /// Room for `bytes` now, so that a full disk shows here rather than later. Throws io::IoError.
+  void reserve(std::uint64_t bytes);
+  /// Bytes at `offset` into `data`, or from it. Throw io::IoError naming the file and the reason.
+  void read(void* data, std::uint64_t bytes, std::uint64_t offset) const;
+  void write(const void* data, std::uint64_t bytes, std::uint64_t offset);
+  const std::string& name() const { return name_; }
+
+ private:
+  void transfer(bool reading, void* data, std::uint64_t bytes, std::uint64_t offset) const;
+  std::string name_;
+  int fd_ = -1;
+};
+
+}  // namespace pointfair::tiles
