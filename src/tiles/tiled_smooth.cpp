@@ -6,6 +6,7 @@
 #include <cctype>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <numeric>
@@ -30,6 +31,7 @@
 #include "pointfair/tiles/ranks.hpp"
 #include "pointfair/version.hpp"
 #include "halo_scratch.hpp"
+#include "scratch_file.hpp"
 #include "row_map.hpp"
 
 namespace pointfair::tiles {
@@ -117,6 +119,13 @@ std::string finish_key(const QuadricProjectionParams& q) {
     << " quadric_frame_seed=" << q.frame.seed_neighbors << " quadric_frame_iterations=" << q.frame.iterations
     << " quadric_frame_bound=" << q.frame.inlier_bound;
   return s.str();
+}
+
+// Empties a vector and gives its memory back (`v = {}` would keep the capacity: it assigns
+// an empty initializer list).
+template <class T>
+void free_vector(std::vector<T>& v) {
+  std::vector<T>().swap(v);
 }
 
 // Bytes held by a vector.
@@ -321,7 +330,8 @@ class Run {
   void finish(std::size_t attributes_degenerate, double lambda);
   void account(std::uint64_t working);
   std::uint64_t persistent_bytes() const {
-    return cache_bytes_ + halo_bytes_ + bytes(halo_rows_) + (halo_scratch_ ? halo_scratch_->bytes() : 0) + bytes(tiles_.offsets) + bytes(tiles_.bounds) + bytes(sample_rows_) +
+    return cache_bytes_ + halo_bytes_ + bytes(halo_rows_) + (halo_scratch_ ? halo_scratch_->bytes() : 0) +
+           (ring_scratch_ ? ring_scratch_->bytes() : 0) + bytes(block_lists_at_) + bytes(block_record_) + bytes(tiles_.offsets) + bytes(tiles_.bounds) + bytes(sample_rows_) +
            bytes(sample_neighbors_) + bytes(sample_counts_) + bytes(sample_local_) + bytes(gather_rows_) +
            bytes(gather_positions_) + held_bytes_;
   }
@@ -360,7 +370,18 @@ class Run {
   // Its kStepBuffer code once written, in row order or in list order.
   std::int64_t target_code(bool list_order) const { return target_buffer() + (list_order ? 3 : 1); }
   void to_row_order();
-  void read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s);
+  // A block of depth h of tile t into `s`: its lists (from the block-lists scratch when it has
+  // that depth, else built from the run file's lists), then its positions of `source`, the
+  // rings' from buffer `ring_buffer` of the ring scratch when it is 0 or 1 (and the lists
+  // came from the scratch).
+  void read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s, int ring_buffer = -1);
+  void build_block_lists(std::size_t t, int h, BlockSlot& s);
+  std::uint64_t store_block_lists(const BlockSlot& s, std::uint64_t offset);
+  void load_block_lists(std::size_t t, BlockSlot& s);
+  // The block-lists and ring scratch for blocks of depth d (single process, where they can be
+  // made and fit in the budget; else blocks build their lists from the run file as before).
+  void prepare_block_lists(int d);
+  void release_block_lists();
   int block_length(int step) const;
 
   fs::path input_path_, output_;
@@ -413,6 +434,17 @@ class Run {
   std::unique_ptr<HaloScratch> halo_scratch_;
   std::array<bool, 2> scratch_holds_{};
   bool scratch_refused_ = false;
+  // Streamed blocks (temporal blocks, compensated steps): every tile's lists of a block of
+  // depth block_lists_depth_ (BlockSlot) in a scratch file, from block_lists_at_[t - first
+  // tile]; the positions of every tile's rings in a halo scratch of their own, and whether
+  // buffer b of it holds those of positions_buffer(b).
+  std::unique_ptr<ScratchFile> block_lists_;
+  std::vector<std::uint64_t> block_lists_at_;
+  int block_lists_depth_ = 0;
+  std::vector<unsigned char> block_record_;
+  std::unique_ptr<HaloScratch> ring_scratch_;
+  std::array<bool, 2> ring_holds_{};
+  bool blocks_refused_ = false;
   bool caching_ = true;
   // Whether the run file has kLocalOrder (tile lists in Morton order, see TileNeighbors).
   bool local_order_ = false;
@@ -964,7 +996,7 @@ void Run::load_reference() {
       target.write_rows(first, count, rows.data()->data());
     }
   }
-  values = {};
+  free_vector(values);
 }
 
 void Run::measure_bounds() {
@@ -1006,6 +1038,8 @@ void Run::rebuild_neighbors(int step) {
   halo_scratch_.reset();
   scratch_holds_ = {};
   scratch_refused_ = false;
+  release_block_lists();
+  blocks_refused_ = false;
   neighbor_source_ = current_source();
   measure_bounds();
   build_neighbors(step);
@@ -1286,7 +1320,7 @@ int Run::block_length(int step) const {
   return h;
 }
 
-void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s) {
+void Run::build_block_lists(std::size_t t, int h, BlockSlot& s) {
   const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
   const std::size_t kk = static_cast<std::size_t>(k());
   const h5::Dataset list_rows = file().dataset(layout::neighbor_rows);
@@ -1361,13 +1395,153 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
   std::sort(s.sorted_local.begin(), s.sorted_local.end(), [&](Index a, Index b) { return s.rows[a] < s.rows[b]; });
   s.sorted_rows.resize(s.sorted_local.size());
   for (std::size_t i = 0; i < s.sorted_local.size(); ++i) s.sorted_rows[i] = s.rows[s.sorted_local[i]];
+  list_rows_read_ += s.level_end[static_cast<std::size_t>(h) - 1];
+}
+
+namespace {
+
+// A block's lists (BlockSlot) as one record of the block-lists scratch: its depth, level_end,
+// rows, each level's counts and lists, and sorted_local.
+template <class T>
+void put(std::vector<unsigned char>& out, const T* data, std::size_t count) {
+  const auto* p = reinterpret_cast<const unsigned char*>(data);
+  out.insert(out.end(), p, p + count * sizeof(T));
+}
+template <class T>
+const unsigned char* take(const unsigned char* in, const unsigned char* end, std::vector<T>& v, std::size_t count) {
+  require(static_cast<std::size_t>(end - in) >= count * sizeof(T), "block lists: a record cut short");
+  v.resize(count);
+  if (count > 0) std::memcpy(v.data(), in, count * sizeof(T));
+  return in + count * sizeof(T);
+}
+
+}  // namespace
+
+std::uint64_t Run::store_block_lists(const BlockSlot& s, std::uint64_t offset) {
+  std::vector<unsigned char>& out = block_record_;
+  out.clear();
+  const std::uint64_t levels = s.lists.size();
+  put(out, &levels, 1);
+  put(out, s.level_end.data(), s.level_end.size());
+  put(out, s.rows.data(), s.rows.size());
+  for (const Neighborhoods& l : s.lists) {
+    put(out, l.counts.data(), l.counts.size());
+    put(out, l.indices.data(), l.indices.size());
+  }
+  put(out, s.sorted_local.data(), s.sorted_local.size());
+  block_lists_->write(out.data(), out.size(), offset);
+  return out.size();
+}
+
+void Run::load_block_lists(std::size_t t, BlockSlot& s) {
+  const std::uint64_t at = block_lists_at_[t - first_tile_], size = block_lists_at_[t - first_tile_ + 1] - at;
+  std::vector<unsigned char>& in = block_record_;
+  in.resize(size);
+  block_lists_->read(in.data(), size, at);
+  const unsigned char *p = in.data(), *const end = in.data() + in.size();
+  std::vector<std::uint64_t> levels;
+  p = take(p, end, levels, 1);
+  require(levels[0] == static_cast<std::uint64_t>(block_lists_depth_), "block lists: a record of another depth");
+  const std::size_t d = static_cast<std::size_t>(levels[0]), kk = static_cast<std::size_t>(k());
+  s.tile = t;
+  p = take(p, end, s.level_end, d + 1);
+  p = take(p, end, s.rows, s.level_end[d]);
+  s.lists.resize(d);
+  for (std::size_t l = 0; l < d; ++l) {
+    const std::size_t count = s.level_end[l] - (l == 0 ? 0 : s.level_end[l - 1]);
+    Neighborhoods& nb = s.lists[l];
+    nb.stride = k();
+    nb.eps = eps_;
+    p = take(p, end, nb.counts, count);
+    p = take(p, end, nb.indices, count * kk);
+  }
+  p = take(p, end, s.sorted_local, s.level_end[d] - s.level_end[0]);
+  require(p == end, "block lists: a record longer than its content");
+  s.degenerate.assign(d, 0);
+  s.sorted_rows.resize(s.sorted_local.size());
+  for (std::size_t i = 0; i < s.sorted_local.size(); ++i) s.sorted_rows[i] = s.rows[s.sorted_local[i]];
+  list_rows_read_ += s.level_end[d - 1];
+}
+
+void Run::prepare_block_lists(int d) {
+  // Every tile's closure of depth d once (as a block would build it) into the block-lists
+  // scratch, and its rings' rows into a halo scratch of their own: later blocks of that depth
+  // read a tile's lists with one read, and its rings' positions with another.
+  if (block_lists_ || blocks_refused_) return;
+  blocks_refused_ = true;  // unless made below
+  if (!options_.halo_scratch || ranks_->size() > 1) return;
+  fs::path directory = output_.parent_path();
+  if (directory.empty()) directory = ".";
+  std::vector<std::vector<std::uint64_t>> rings(end_tile_);
+  std::uint64_t ring_bytes = 0, most_points = 0;
+  BlockSlot slot;
+  try {
+    block_lists_ = std::make_unique<ScratchFile>(directory, output_.string() + " (block lists)");
+    block_lists_depth_ = d;
+    block_lists_at_.assign(end_tile_ - first_tile_ + 1, 0);
+    std::uint64_t offset = 0;
+    for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+      block_lists_at_[t - first_tile_] = offset;
+      if (tiles_.rows(t) == 0) continue;
+      build_block_lists(t, d, slot);
+      offset += store_block_lists(slot, offset);
+      rings[t] = slot.sorted_rows;
+      ring_bytes += bytes(rings[t]);
+      most_points = std::max<std::uint64_t>(most_points, slot.rows.size());
+      // The rings' rows kept so far and this tile's closure, in the room of the tiles in
+      // flight (none is now): or no scratch.
+      const std::uint64_t working = slot.bytes() + bytes(block_record_);
+      if (persistent_bytes() + ring_bytes + std::max(working, slots_ * (slot_estimate_ + slot_estimate_ / 2)) >
+          options_.memory_budget) {
+        release_block_lists();
+        return;
+      }
+      account(working + ring_bytes);
+    }
+    block_lists_at_[end_tile_ - first_tile_] = offset;
+    ring_scratch_ = std::make_unique<HaloScratch>(directory, output_.string() + " (ring scratch)", rings,
+                                                  tiles_.offsets, first_tile_, end_tile_);
+  } catch (const io::IoError&) {
+    release_block_lists();
+    return;
+  }
+  free_vector(block_record_);
+  // Kept where the tiles in flight still fit beside it: each with the largest closure's lists
+  // (`slot` holds them at their largest) and positions (BlockSlot::cur, next, scratch, ids, and
+  // updated when compensated), or the estimate the slots were sized with if that is more.
+  const std::uint64_t per_point = (compensated() ? 4 : 3) * sizeof(Vec3) + sizeof(Index);
+  const std::uint64_t per_slot =
+      std::max(slot_estimate_ + slot_estimate_ / 2, slot.bytes() + most_points * per_point);
+  if (persistent_bytes() + slots_ * per_slot > options_.memory_budget) {
+    release_block_lists();
+    return;
+  }
+  ring_holds_ = {};
+  blocks_refused_ = false;
+}
+
+void Run::release_block_lists() {
+  block_lists_.reset();
+  free_vector(block_lists_at_);
+  block_lists_depth_ = 0;
+  free_vector(block_record_);
+  ring_scratch_.reset();
+  ring_holds_ = {};
+}
+
+void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s, int ring_buffer) {
+  const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
+  const bool cached = block_lists_ && h == block_lists_depth_;
+  if (cached) load_block_lists(t, s);
+  else build_block_lists(t, h, s);
   // Positions of step n: the tile's rows, then the rings read in ascending row order.
   s.cur.resize(s.rows.size());
   s.next.resize(s.level_end[static_cast<std::size_t>(h) - 1]);
   source.read_rows(begin, rows, s.cur.data()->data());
   if (!s.sorted_rows.empty()) {
     s.scratch.resize(s.sorted_rows.size());
-    source.read_selected(s.sorted_rows, s.scratch.data()->data());
+    if (cached && ring_buffer >= 0) ring_scratch_->read(ring_buffer, t, s.scratch.data());
+    else source.read_selected(s.sorted_rows, s.scratch.data()->data());
     for (std::size_t i = 0; i < s.sorted_rows.size(); ++i) s.cur[s.sorted_local[i]] = s.scratch[i];
   }
   if (s.ids.size() < s.next.size()) {
@@ -1375,7 +1549,6 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
     std::iota(s.ids.begin(), s.ids.end(), Index{0});
   }
   rows_read_ += s.rows.size();
-  list_rows_read_ += s.next.size();
 }
 
 std::size_t Run::pipeline_slots(std::uint64_t fixed) {
@@ -1415,10 +1588,10 @@ void Run::release_positions() {
   holding_ = false;
   held_cur_ = 0;
   held_ = {};
-  held_updated_ = {};
-  held_base_ = {};
-  held_halo_ = {};
-  held_slot_ = {};
+  free_vector(held_updated_);
+  free_vector(held_base_);
+  free_vector(held_halo_);
+  free_vector(held_slot_);
   held_list_order_ = false;
   held_bytes_ = 0;
 }
@@ -1596,7 +1769,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     } else {
       load_sample_positions(file().dataset(built_at == 0 ? std::string(layout::positions) : current_source()));
       lambda = sample_lambda();
-      gather_positions_ = {};
+      free_vector(gather_positions_);
     }
   }
   if (every_step) load_sample_positions(file().dataset(current_source()));
@@ -1699,7 +1872,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       ++report.rebuilds;
       if (auto_lambda_on() && !every_step) {
         lambda = sample_lambda();
-        gather_positions_ = {};
+        free_vector(gather_positions_);
       }
       report.seconds_neighbors += seconds_since(t0);
       t0 = Clock::now();
@@ -1748,8 +1921,20 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // Streamed steps: the buffer of the halo scratch this step writes.
     const int written_halos = target_buffer();
     if (blocks()) {
-      stages.read = [&](std::size_t item, std::size_t slot) {
-        read_block(work[item], block_depth(h), source, block_slots[slot]);
+      // The block lists of this depth, made once (the first block at most reads them back);
+      // the rings from the ring scratch where it holds the source's.
+      {  // part of building the lists, as prepare_lists
+        const auto tp = Clock::now();
+        prepare_block_lists(block_depth(h));
+        report.seconds_neighbors += seconds_since(tp);
+        t0 += Clock::now() - tp;
+      }
+      int ring_from = -1;
+      for (int b = 0; ring_scratch_ && b < 2; ++b)
+        if (ring_holds_[static_cast<std::size_t>(b)] && current_source() == positions_buffer(b)) ring_from = b;
+      if (ring_scratch_) ring_holds_[static_cast<std::size_t>(written_halos)] = false;
+      stages.read = [&, ring_from](std::size_t item, std::size_t slot) {
+        read_block(work[item], block_depth(h), source, block_slots[slot], ring_from);
         // The plain updates of a compensated step, counted with the rest of the block.
         if (compensated()) block_slots[slot].updated.resize(block_slots[slot].cur.size());
         largest_local_ = std::max<std::uint64_t>(largest_local_, block_slots[slot].cur.size());
@@ -1762,6 +1947,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         BlockSlot& b = block_slots[slot];
         const std::uint64_t begin = tiles_.offsets[b.tile], rows = tiles_.rows(b.tile);
         target.write_rows(begin, rows, b.cur.data()->data(), h5::Transfer::Collective);
+        if (ring_scratch_) ring_scratch_->write(written_halos, b.tile, b.cur.data());
         for (int j = 0; j < h; ++j) block_degenerate[static_cast<std::size_t>(j)] += b.degenerate[static_cast<std::size_t>(j)];
         if (every_step) {  // one step a block (temporal blocks refuse a lambda of every step)
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
@@ -1781,7 +1967,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         s.nb = neighbors_of(s.tile);
         const std::uint64_t rows = tiles_.rows(s.tile);
         const std::vector<std::uint64_t>& from = held_halo_[s.tile];
-        if (list_order_step) s.next = {};  // the step is written from the held buffer
+        if (list_order_step) free_vector(s.next);  // the step is written from the held buffer
         else s.next.resize(rows);
         largest_local_ = std::max<std::uint64_t>(largest_local_, rows + from.size());
         account(slots_bytes());
@@ -1936,6 +2122,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
     if (holding_) held_cur_ = 1 - held_cur_;
     if (halos != nullptr) {
       scratch_holds_[static_cast<std::size_t>(written_halos)] = true;
+      report.halo_scratch = true;
+    }
+    if (blocks() && ring_scratch_) {
+      ring_holds_[static_cast<std::size_t>(written_halos)] = true;
       report.halo_scratch = true;
     }
     // Collective writes: as many per rank as the rank with the most tiles.
@@ -2253,6 +2443,7 @@ OutOfCoreReport Run::run() {
   release_positions();  // the finish and the attributes need the room
   halo_scratch_.reset();
   scratch_holds_ = {};
+  release_block_lists();
   const bool finish_done = steps_done && run_finish(report);
   if (!finish_done) {
     report.neighbors_cached = caching_;

@@ -442,9 +442,18 @@ TEST_F(TiledSmoothTest, TemporalBlocksGiveTheSameBits) {
         if (rebuild == 0) {
           EXPECT_LT(r.position_rows_read, one.position_rows_read);
         }
+        // The blocks' lists and rings' positions from their scratch files (the ring scratch
+        // is read from the second block of a depth on).
+        EXPECT_TRUE(r.halo_scratch);
         std::filesystem::remove(path("run.h5"));
         // Stopped after the first block, resumed (with the other block length).
         expect_stopped_and_resumed_identical(params, options, 5 - h, ref);
+        // Without the scratch: every block built from the run file's lists, the same bits.
+        options.halo_scratch = false;
+        const OutOfCoreReport plain = smooth_out_of_core(path("in.h5"), path("run.h5"), params, options);
+        EXPECT_FALSE(plain.halo_scratch);
+        expect_identical(path("run.h5"), ref);
+        std::filesystem::remove(path("run.h5"));
       }
       std::filesystem::remove(path("one.h5"));
     }
