@@ -209,12 +209,18 @@ struct BlockSlot {
   std::vector<std::uint32_t> global;       // lists of a level in container rows, while reading
   std::vector<std::uint16_t> counts;
   std::vector<Vec3> scratch;
+  // The tile's points in Morton order (blocks whose lists come from the block-lists scratch):
+  // local point s < the tile's size is its row order[s] (empty: row s); `by_row` holds the
+  // tile's positions in row order, read before the block and written after it.
+  std::vector<Index> order;
+  std::vector<Vec3> by_row;
 
   std::uint64_t bytes() const {
     std::uint64_t b = tiles::bytes(level_end) + tiles::bytes(cur) + tiles::bytes(next) + tiles::bytes(updated) +
                       tiles::bytes(ids) +
                       tiles::bytes(degenerate) + tiles::bytes(rows) + tiles::bytes(sorted_rows) +
-                      tiles::bytes(sorted_local) + tiles::bytes(global) + tiles::bytes(counts) + tiles::bytes(scratch) + ring_local.bytes();
+                      tiles::bytes(sorted_local) + tiles::bytes(global) + tiles::bytes(counts) + tiles::bytes(scratch) + ring_local.bytes() +
+                      tiles::bytes(order) + tiles::bytes(by_row);
     for (const Neighborhoods& l : lists) b += tiles::bytes(l.indices) + tiles::bytes(l.counts);
     return b;
   }
@@ -233,6 +239,11 @@ struct BlockSlot {
       return std::span<Vec3>(v.data() + begin, level_end[l] - begin);
     };
     if (beta > 0.0) updated.resize(cur.size());
+    const std::size_t own = level_end[0];
+    if (!order.empty())
+      parallel_for(own, [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) cur[i] = by_row[order[i]];
+      }, 8192);
     for (std::size_t j = 1; j <= h; ++j) {
       // The deepest level whose step-j positions are exact, and the deepest plain update.
       const std::size_t last = d - rings * j, reach = last + rings - 1;
@@ -250,7 +261,13 @@ struct BlockSlot {
           if (!ids_of(l).empty()) compensate_shrinkage(cur, updated, lists[l], ids_of(l), beta, part(next, l));
       std::copy(next.begin(), next.begin() + static_cast<std::ptrdiff_t>(level_end[last]), cur.begin());
     }
+    if (!order.empty())
+      parallel_for(own, [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) by_row[order[i]] = cur[i];
+      }, 8192);
   }
+  // The tile's positions after the block, in row order.
+  const Vec3* tile_rows() const { return order.empty() ? cur.data() : by_row.data(); }
 };
 
 class Run {
@@ -375,7 +392,8 @@ class Run {
   // rings' from buffer `ring_buffer` of the ring scratch when it is 0 or 1 (and the lists
   // came from the scratch).
   void read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s, int ring_buffer = -1);
-  void build_block_lists(std::size_t t, int h, BlockSlot& s);
+  // `morton`: the tile's points in Morton order (BlockSlot::order).
+  void build_block_lists(std::size_t t, int h, BlockSlot& s, bool morton);
   std::uint64_t store_block_lists(const BlockSlot& s, std::uint64_t offset);
   void load_block_lists(std::size_t t, BlockSlot& s);
   // The block-lists and ring scratch for blocks of depth d (single process, where they can be
@@ -1320,7 +1338,7 @@ int Run::block_length(int step) const {
   return h;
 }
 
-void Run::build_block_lists(std::size_t t, int h, BlockSlot& s) {
+void Run::build_block_lists(std::size_t t, int h, BlockSlot& s, bool morton) {
   const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
   const std::size_t kk = static_cast<std::size_t>(k());
   const h5::Dataset list_rows = file().dataset(layout::neighbor_rows);
@@ -1396,6 +1414,30 @@ void Run::build_block_lists(std::size_t t, int h, BlockSlot& s) {
   s.sorted_rows.resize(s.sorted_local.size());
   for (std::size_t i = 0; i < s.sorted_local.size(); ++i) s.sorted_rows[i] = s.rows[s.sorted_local[i]];
   list_rows_read_ += s.level_end[static_cast<std::size_t>(h) - 1];
+  s.order.clear();
+  if (!morton || rows < 2) return;
+  // The tile's points renumbered in the Morton order of their input positions (as the single
+  // steps' lists, TileNeighbors): the kernel then reads its neighbours from nearby memory. The
+  // lists keep their order, so no bit of a result changes.
+  std::vector<Vec3> p(rows);
+  file().dataset(layout::positions).read_rows(begin, rows, p.data()->data());
+  s.order = spatial_order(p);
+  const std::vector<Index> slot_of = inverse_permutation(s.order);
+  for (Neighborhoods& nb : s.lists)
+    for (Index& e : nb.indices)
+      if (e < rows) e = slot_of[e];
+  Neighborhoods& top = s.lists[0];
+  std::vector<Index> indices(top.indices.size());
+  std::vector<std::uint16_t> counts(top.counts.size());
+  for (std::size_t i = 0; i < rows; ++i) {
+    const std::size_t r = s.order[i];
+    counts[i] = top.counts[r];
+    std::copy_n(top.indices.begin() + static_cast<std::ptrdiff_t>(r * kk), kk,
+                indices.begin() + static_cast<std::ptrdiff_t>(i * kk));
+  }
+  top.indices = std::move(indices);
+  top.counts = std::move(counts);
+  for (std::size_t i = 0; i < rows; ++i) s.rows[i] = begin + s.order[i];
 }
 
 namespace {
@@ -1429,6 +1471,9 @@ std::uint64_t Run::store_block_lists(const BlockSlot& s, std::uint64_t offset) {
     put(out, l.indices.data(), l.indices.size());
   }
   put(out, s.sorted_local.data(), s.sorted_local.size());
+  const std::uint64_t ordered = s.order.size();
+  put(out, &ordered, 1);
+  put(out, s.order.data(), s.order.size());
   block_lists_->write(out.data(), out.size(), offset);
   return out.size();
 }
@@ -1456,6 +1501,10 @@ void Run::load_block_lists(std::size_t t, BlockSlot& s) {
     p = take(p, end, nb.indices, count * kk);
   }
   p = take(p, end, s.sorted_local, s.level_end[d] - s.level_end[0]);
+  std::vector<std::uint64_t> ordered;
+  p = take(p, end, ordered, 1);
+  require(ordered[0] == 0 || ordered[0] == s.level_end[0], "block lists: an order of the wrong length");
+  p = take(p, end, s.order, ordered[0]);
   require(p == end, "block lists: a record longer than its content");
   s.degenerate.assign(d, 0);
   s.sorted_rows.resize(s.sorted_local.size());
@@ -1483,7 +1532,7 @@ void Run::prepare_block_lists(int d) {
     for (std::size_t t = first_tile_; t < end_tile_; ++t) {
       block_lists_at_[t - first_tile_] = offset;
       if (tiles_.rows(t) == 0) continue;
-      build_block_lists(t, d, slot);
+      build_block_lists(t, d, slot, true);
       offset += store_block_lists(slot, offset);
       rings[t] = slot.sorted_rows;
       ring_bytes += bytes(rings[t]);
@@ -1509,7 +1558,7 @@ void Run::prepare_block_lists(int d) {
   // Kept where the tiles in flight still fit beside it: each with the largest closure's lists
   // (`slot` holds them at their largest) and positions (BlockSlot::cur, next, scratch, ids, and
   // updated when compensated), or the estimate the slots were sized with if that is more.
-  const std::uint64_t per_point = (compensated() ? 4 : 3) * sizeof(Vec3) + sizeof(Index);
+  const std::uint64_t per_point = (compensated() ? 5 : 4) * sizeof(Vec3) + 2 * sizeof(Index);
   const std::uint64_t per_slot =
       std::max(slot_estimate_ + slot_estimate_ / 2, slot.bytes() + most_points * per_point);
   if (persistent_bytes() + slots_ * per_slot > options_.memory_budget) {
@@ -1533,11 +1582,13 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
   const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
   const bool cached = block_lists_ && h == block_lists_depth_;
   if (cached) load_block_lists(t, s);
-  else build_block_lists(t, h, s);
-  // Positions of step n: the tile's rows, then the rings read in ascending row order.
+  else build_block_lists(t, h, s, false);
+  // Positions of step n: the tile's rows (in row order into `by_row`, moved into Morton order
+  // by compute()), then the rings read in ascending row order.
   s.cur.resize(s.rows.size());
   s.next.resize(s.level_end[static_cast<std::size_t>(h) - 1]);
-  source.read_rows(begin, rows, s.cur.data()->data());
+  if (!s.order.empty()) s.by_row.resize(rows);
+  source.read_rows(begin, rows, (s.order.empty() ? s.cur : s.by_row).data()->data());
   if (!s.sorted_rows.empty()) {
     s.scratch.resize(s.sorted_rows.size());
     if (cached && ring_buffer >= 0) ring_scratch_->read(ring_buffer, t, s.scratch.data());
@@ -1946,13 +1997,14 @@ bool Run::run_steps(OutOfCoreReport& report) {
       stages.write = [&](std::size_t, std::size_t slot) {
         BlockSlot& b = block_slots[slot];
         const std::uint64_t begin = tiles_.offsets[b.tile], rows = tiles_.rows(b.tile);
-        target.write_rows(begin, rows, b.cur.data()->data(), h5::Transfer::Collective);
-        if (ring_scratch_) ring_scratch_->write(written_halos, b.tile, b.cur.data());
+        const Vec3* const result = b.tile_rows();
+        target.write_rows(begin, rows, result->data(), h5::Transfer::Collective);
+        if (ring_scratch_) ring_scratch_->write(written_halos, b.tile, result);
         for (int j = 0; j < h; ++j) block_degenerate[static_cast<std::size_t>(j)] += b.degenerate[static_cast<std::size_t>(j)];
         if (every_step) {  // one step a block (temporal blocks refuse a lambda of every step)
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
           for (; it != gather_rows_.end() && *it < begin + rows; ++it)
-            gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = b.cur[*it - begin];
+            gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = result[*it - begin];
         }
       };
     } else {
