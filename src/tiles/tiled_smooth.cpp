@@ -400,6 +400,16 @@ class Run {
   // made and fit in the budget; else blocks build their lists from the run file as before).
   void prepare_block_lists(int d);
   void release_block_lists();
+  // Every scratch of the steps (halos, block lists, rings) dropped, to be made again when
+  // wanted (after a rebuild; after the steps, for the room).
+  void release_scratch();
+  // Where the scratch files go: the output's directory.
+  fs::path scratch_directory() const;
+  // The buffer (0 or 1) of a halo or ring scratch that holds the current source's positions,
+  // by the scratch's `holds`; -1 when none does.
+  int buffer_holding_source(const std::array<bool, 2>& holds) const;
+  // The room kept for the tiles in flight.
+  std::uint64_t slots_room() const { return slots_ * (slot_estimate_ + slot_estimate_ / 2); }
   int block_length(int step) const;
 
   fs::path input_path_, output_;
@@ -1053,11 +1063,7 @@ void Run::rebuild_neighbors(int step) {
   // smooth()'s rebuild: eps resolved again and the lists built from the step's positions,
   // over the same tiles with a geometric halo around their current bounds. The halo scratch
   // is of the old halos (made again for the new ones by the next streamed step).
-  halo_scratch_.reset();
-  scratch_holds_ = {};
-  scratch_refused_ = false;
-  release_block_lists();
-  blocks_refused_ = false;
+  release_scratch();
   neighbor_source_ = current_source();
   measure_bounds();
   build_neighbors(step);
@@ -1303,8 +1309,7 @@ HaloScratch* Run::streamed_halos() {
   for (std::size_t t = first_tile_; t < end_tile_; ++t)
     if (tiles_.rows(t) > 0 && !local_written_[t]) return nullptr;
   scratch_refused_ = true;  // unless made below
-  fs::path directory = output_.parent_path();
-  if (directory.empty()) directory = ".";
+  const fs::path directory = scratch_directory();
   // The steps give the scratch each tile's points in the order of its lists.
   const auto order_of = [this](std::size_t u) {
     std::vector<Index> order;
@@ -1321,7 +1326,7 @@ HaloScratch* Run::streamed_halos() {
     return nullptr;  // the halos are read from the run file
   }
   // Its tables next to what the run keeps and the tiles in flight, or not at all.
-  if (persistent_bytes() + slots_ * (slot_estimate_ + slot_estimate_ / 2) > options_.memory_budget) {
+  if (persistent_bytes() + slots_room() > options_.memory_budget) {
     halo_scratch_.reset();
     return nullptr;
   }
@@ -1519,8 +1524,7 @@ void Run::prepare_block_lists(int d) {
   if (block_lists_ || blocks_refused_) return;
   blocks_refused_ = true;  // unless made below
   if (!options_.halo_scratch || ranks_->size() > 1) return;
-  fs::path directory = output_.parent_path();
-  if (directory.empty()) directory = ".";
+  const fs::path directory = scratch_directory();
   std::vector<std::vector<std::uint64_t>> rings(end_tile_);
   std::uint64_t ring_bytes = 0, most_points = 0;
   BlockSlot slot;
@@ -1540,7 +1544,7 @@ void Run::prepare_block_lists(int d) {
       // The rings' rows kept so far and this tile's closure, in the room of the tiles in
       // flight (none is now): or no scratch.
       const std::uint64_t working = slot.bytes() + bytes(block_record_);
-      if (persistent_bytes() + ring_bytes + std::max(working, slots_ * (slot_estimate_ + slot_estimate_ / 2)) >
+      if (persistent_bytes() + ring_bytes + std::max(working, slots_room()) >
           options_.memory_budget) {
         release_block_lists();
         return;
@@ -1567,6 +1571,25 @@ void Run::prepare_block_lists(int d) {
   }
   ring_holds_ = {};
   blocks_refused_ = false;
+}
+
+void Run::release_scratch() {
+  halo_scratch_.reset();
+  scratch_holds_ = {};
+  scratch_refused_ = false;
+  release_block_lists();
+  blocks_refused_ = false;
+}
+
+fs::path Run::scratch_directory() const {
+  const fs::path directory = output_.parent_path();
+  return directory.empty() ? fs::path(".") : directory;
+}
+
+int Run::buffer_holding_source(const std::array<bool, 2>& holds) const {
+  for (int b = 0; b < 2; ++b)
+    if (holds[static_cast<std::size_t>(b)] && current_source() == positions_buffer(b)) return b;
+  return -1;
 }
 
 void Run::release_block_lists() {
@@ -1669,7 +1692,7 @@ void Run::hold_positions() {
   const std::uint64_t copies = compensated() ? 3 : 2;
   const std::uint64_t need = copies * total * sizeof(Vec3) + halo_total * sizeof(std::uint64_t) + bytes(base) +
                              (my_end_row() - my_first_row()) * sizeof(Index);  // the inverse orders below
-  able = able && persistent_bytes() + need + slots_ * (slot_estimate_ + slot_estimate_ / 2) <= options_.memory_budget;
+  able = able && persistent_bytes() + need + slots_room() <= options_.memory_budget;
   // Every rank holds, or none: the steps' commit records (list order or not) and the
   // collective writes of to_row_order are shared.
   if (!on_every_rank(able)) return;
@@ -1980,9 +2003,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         report.seconds_neighbors += seconds_since(tp);
         t0 += Clock::now() - tp;
       }
-      int ring_from = -1;
-      for (int b = 0; ring_scratch_ && b < 2; ++b)
-        if (ring_holds_[static_cast<std::size_t>(b)] && current_source() == positions_buffer(b)) ring_from = b;
+      const int ring_from = ring_scratch_ ? buffer_holding_source(ring_holds_) : -1;
       if (ring_scratch_) ring_holds_[static_cast<std::size_t>(written_halos)] = false;
       stages.read = [&, ring_from](std::size_t item, std::size_t slot) {
         read_block(work[item], block_depth(h), source, block_slots[slot], ring_from);
@@ -2096,9 +2117,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     } else {
     // Streamed: each tile's halo from the halo scratch where it holds the source's (the
     // previous step wrote it), else from the run file; the step writes the target's.
-    int halos_from = -1;
-    for (int b = 0; halos != nullptr && b < 2; ++b)
-      if (scratch_holds_[static_cast<std::size_t>(b)] && current_source() == positions_buffer(b)) halos_from = b;
+    const int halos_from = halos != nullptr ? buffer_holding_source(scratch_holds_) : -1;
     if (halos != nullptr) scratch_holds_[static_cast<std::size_t>(written_halos)] = false;
     // A source in list order was written by the previous step of this call, with the halos.
     const bool source_listed = source_in_list_order();
@@ -2165,7 +2184,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       // A held step in row order (the last, or one before a rebuild): a slot holds only its
       // tile's rows in file order (`next`), so as many as fit in the room kept for the slots
       // are in flight, and the computes need not wait for the previous step's commit.
-      const std::uint64_t room = slots_ * (slot_estimate_ + slot_estimate_ / 2);
+      const std::uint64_t room = slots_room();
       const std::uint64_t per_slot = std::max<std::uint64_t>(1, max_tile_rows_ * sizeof(Vec3));
       in_flight = static_cast<std::size_t>(std::clamp<std::uint64_t>(room / per_slot, slot_count, slots.size()));
     }
@@ -2493,9 +2512,7 @@ OutOfCoreReport Run::run() {
   const bool steps_done = run_steps(report);
   report.positions_held = holding_;
   release_positions();  // the finish and the attributes need the room
-  halo_scratch_.reset();
-  scratch_holds_ = {};
-  release_block_lists();
+  release_scratch();
   const bool finish_done = steps_done && run_finish(report);
   if (!finish_done) {
     report.neighbors_cached = caching_;
