@@ -214,6 +214,9 @@ struct BlockSlot {
   // tile's positions in row order, read before the block and written after it.
   std::vector<Index> order;
   std::vector<Vec3> by_row;
+  // A block whose source holds the tile in that order (written so by the previous block):
+  // read straight into `cur`. One that writes it so: `cur` is the result, `by_row` unused.
+  bool read_listed = false, write_listed = false;
 
   std::uint64_t bytes() const {
     std::uint64_t b = tiles::bytes(level_end) + tiles::bytes(cur) + tiles::bytes(next) + tiles::bytes(updated) +
@@ -240,7 +243,7 @@ struct BlockSlot {
     };
     if (beta > 0.0) updated.resize(cur.size());
     const std::size_t own = level_end[0];
-    if (!order.empty())
+    if (!order.empty() && !read_listed)
       parallel_for(own, [&](std::size_t b, std::size_t e) {
         for (std::size_t i = b; i < e; ++i) cur[i] = by_row[order[i]];
       }, 8192);
@@ -258,16 +261,19 @@ struct BlockSlot {
       }
       if (beta > 0.0)
         for (std::size_t l = 0; l <= last; ++l)
-          if (!ids_of(l).empty()) compensate_shrinkage(cur, updated, lists[l], ids_of(l), beta, part(next, l));
-      std::copy(next.begin(), next.begin() + static_cast<std::ptrdiff_t>(level_end[last]), cur.begin());
+          if (!ids_of(l).empty()) compensate_shrinkage(cur, std::span<const Vec3>(updated.data(), cur.size()), lists[l], ids_of(l),
+                                                     beta, part(next, l));
+      // Levels 0 .. last now hold step j in `next`; the later steps read no level beyond
+      // `last` (they reach one level less each), so the buffers trade places.
+      std::swap(cur, next);
     }
-    if (!order.empty())
+    if (!order.empty() && !write_listed)
       parallel_for(own, [&](std::size_t b, std::size_t e) {
         for (std::size_t i = b; i < e; ++i) by_row[order[i]] = cur[i];
       }, 8192);
   }
   // The tile's positions after the block, in row order.
-  const Vec3* tile_rows() const { return order.empty() ? cur.data() : by_row.data(); }
+  const Vec3* tile_rows() const { return order.empty() || write_listed ? cur.data() : by_row.data(); }
 };
 
 class Run {
@@ -390,8 +396,10 @@ class Run {
   // A block of depth h of tile t into `s`: its lists (from the block-lists scratch when it has
   // that depth, else built from the run file's lists), then its positions of `source`, the
   // rings' from buffer `ring_buffer` of the ring scratch when it is 0 or 1 (and the lists
-  // came from the scratch).
-  void read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s, int ring_buffer = -1);
+  // came from the scratch). `listed`: the source holds the tile in its lists' order (only
+  // with lists and rings from the scratch).
+  void read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s, int ring_buffer = -1,
+                  bool listed = false);
   // `morton`: the tile's points in Morton order (BlockSlot::order).
   void build_block_lists(std::size_t t, int h, BlockSlot& s, bool morton);
   std::uint64_t store_block_lists(const BlockSlot& s, std::uint64_t offset);
@@ -1447,19 +1455,12 @@ void Run::build_block_lists(std::size_t t, int h, BlockSlot& s, bool morton) {
 
 namespace {
 
-// A block's lists (BlockSlot) as one record of the block-lists scratch: its depth, level_end,
-// rows, each level's counts and lists, and sorted_local.
+// A block's lists (BlockSlot) as one record of the block-lists scratch: its depth and the
+// length of its order, level_end, rows, each level's counts and lists, sorted_local, order.
 template <class T>
 void put(std::vector<unsigned char>& out, const T* data, std::size_t count) {
   const auto* p = reinterpret_cast<const unsigned char*>(data);
   out.insert(out.end(), p, p + count * sizeof(T));
-}
-template <class T>
-const unsigned char* take(const unsigned char* in, const unsigned char* end, std::vector<T>& v, std::size_t count) {
-  require(static_cast<std::size_t>(end - in) >= count * sizeof(T), "block lists: a record cut short");
-  v.resize(count);
-  if (count > 0) std::memcpy(v.data(), in, count * sizeof(T));
-  return in + count * sizeof(T);
 }
 
 }  // namespace
@@ -1467,8 +1468,9 @@ const unsigned char* take(const unsigned char* in, const unsigned char* end, std
 std::uint64_t Run::store_block_lists(const BlockSlot& s, std::uint64_t offset) {
   std::vector<unsigned char>& out = block_record_;
   out.clear();
-  const std::uint64_t levels = s.lists.size();
+  const std::uint64_t levels = s.lists.size(), ordered = s.order.size();
   put(out, &levels, 1);
+  put(out, &ordered, 1);
   put(out, s.level_end.data(), s.level_end.size());
   put(out, s.rows.data(), s.rows.size());
   for (const Neighborhoods& l : s.lists) {
@@ -1476,41 +1478,44 @@ std::uint64_t Run::store_block_lists(const BlockSlot& s, std::uint64_t offset) {
     put(out, l.indices.data(), l.indices.size());
   }
   put(out, s.sorted_local.data(), s.sorted_local.size());
-  const std::uint64_t ordered = s.order.size();
-  put(out, &ordered, 1);
   put(out, s.order.data(), s.order.size());
   block_lists_->write(out.data(), out.size(), offset);
   return out.size();
 }
 
 void Run::load_block_lists(std::size_t t, BlockSlot& s) {
-  const std::uint64_t at = block_lists_at_[t - first_tile_], size = block_lists_at_[t - first_tile_ + 1] - at;
-  std::vector<unsigned char>& in = block_record_;
-  in.resize(size);
-  block_lists_->read(in.data(), size, at);
-  const unsigned char *p = in.data(), *const end = in.data() + in.size();
-  std::vector<std::uint64_t> levels;
-  p = take(p, end, levels, 1);
-  require(levels[0] == static_cast<std::uint64_t>(block_lists_depth_), "block lists: a record of another depth");
-  const std::size_t d = static_cast<std::size_t>(levels[0]), kk = static_cast<std::size_t>(k());
+  // The header (depth, order length, level_end), then each array straight into its place.
+  const std::uint64_t at = block_lists_at_[t - first_tile_], end = block_lists_at_[t - first_tile_ + 1];
+  const std::size_t d = static_cast<std::size_t>(block_lists_depth_), kk = static_cast<std::size_t>(k());
+  std::uint64_t offset = at;
+  const auto take = [&](auto& v, std::size_t count) {
+    using T = typename std::decay_t<decltype(v)>::value_type;
+    require(offset + count * sizeof(T) <= end, "block lists: a record cut short");
+    v.resize(count);
+    if (count > 0) block_lists_->read(v.data(), count * sizeof(T), offset);
+    offset += count * sizeof(T);
+  };
+  std::array<std::uint64_t, 2> header{};
+  require(end - at >= sizeof(header), "block lists: a record cut short");
+  block_lists_->read(header.data(), sizeof(header), offset);
+  offset += sizeof(header);
+  require(header[0] == d, "block lists: a record of another depth");
   s.tile = t;
-  p = take(p, end, s.level_end, d + 1);
-  p = take(p, end, s.rows, s.level_end[d]);
+  take(s.level_end, d + 1);
+  require(header[1] == 0 || header[1] == s.level_end[0], "block lists: an order of the wrong length");
+  take(s.rows, s.level_end[d]);
   s.lists.resize(d);
   for (std::size_t l = 0; l < d; ++l) {
     const std::size_t count = s.level_end[l] - (l == 0 ? 0 : s.level_end[l - 1]);
     Neighborhoods& nb = s.lists[l];
     nb.stride = k();
     nb.eps = eps_;
-    p = take(p, end, nb.counts, count);
-    p = take(p, end, nb.indices, count * kk);
+    take(nb.counts, count);
+    take(nb.indices, count * kk);
   }
-  p = take(p, end, s.sorted_local, s.level_end[d] - s.level_end[0]);
-  std::vector<std::uint64_t> ordered;
-  p = take(p, end, ordered, 1);
-  require(ordered[0] == 0 || ordered[0] == s.level_end[0], "block lists: an order of the wrong length");
-  p = take(p, end, s.order, ordered[0]);
-  require(p == end, "block lists: a record longer than its content");
+  take(s.sorted_local, s.level_end[d] - s.level_end[0]);
+  take(s.order, header[1]);
+  require(offset == end, "block lists: a record longer than its content");
   s.degenerate.assign(d, 0);
   s.sorted_rows.resize(s.sorted_local.size());
   for (std::size_t i = 0; i < s.sorted_local.size(); ++i) s.sorted_rows[i] = s.rows[s.sorted_local[i]];
@@ -1538,37 +1543,58 @@ void Run::prepare_block_lists(int d) {
       if (tiles_.rows(t) == 0) continue;
       build_block_lists(t, d, slot, true);
       offset += store_block_lists(slot, offset);
+      // The order also where a resumed run finds it (to_row_order), for blocks that write
+      // their tiles in it. The same as the single steps' (tile_neighbors).
+      if (local_order_ && !slot.order.empty())
+        file().dataset(kLocalOrder).write_rows(tiles_.offsets[t], tiles_.rows(t), slot.order.data());
       rings[t] = slot.sorted_rows;
       ring_bytes += bytes(rings[t]);
       most_points = std::max<std::uint64_t>(most_points, slot.rows.size());
-      // The rings' rows kept so far and this tile's closure, in the room of the tiles in
-      // flight (none is now): or no scratch.
+      // The rings' rows kept so far and this tile's closure (no tile is in flight now): or no
+      // scratch.
       const std::uint64_t working = slot.bytes() + bytes(block_record_);
-      if (persistent_bytes() + ring_bytes + std::max(working, slots_room()) >
-          options_.memory_budget) {
+      if (persistent_bytes() + ring_bytes + working > options_.memory_budget) {
         release_block_lists();
         return;
       }
       account(working + ring_bytes);
     }
     block_lists_at_[end_tile_ - first_tile_] = offset;
+    // The blocks give it each tile's points in their Morton order (BlockSlot::cur).
+    const auto order_of = [this](std::size_t u) {
+      std::vector<Index> order;
+      if (tiles_.rows(u) < 2) return order;
+      if (!local_order_) {
+        std::vector<Vec3> p(tiles_.rows(u));
+        file().dataset(layout::positions).read_rows(tiles_.offsets[u], tiles_.rows(u), p.data()->data());
+        return spatial_order(p);
+      }
+      order.resize(tiles_.rows(u));
+      file().dataset(kLocalOrder).read_rows(tiles_.offsets[u], tiles_.rows(u), order.data());
+      return order;
+    };
     ring_scratch_ = std::make_unique<HaloScratch>(directory, output_.string() + " (ring scratch)", rings,
-                                                  tiles_.offsets, first_tile_, end_tile_);
+                                                  tiles_.offsets, first_tile_, end_tile_, order_of);
   } catch (const io::IoError&) {
     release_block_lists();
     return;
   }
   free_vector(block_record_);
   // Kept where the tiles in flight still fit beside it: each with the largest closure's lists
-  // (`slot` holds them at their largest) and positions (BlockSlot::cur, next, scratch, ids, and
-  // updated when compensated), or the estimate the slots were sized with if that is more.
+  // (`slot` holds them at their largest, with the buffers of building them, which the slots
+  // reading the scratch never fill) and positions (BlockSlot::cur, next, scratch, by_row, ids,
+  // and updated when compensated). Not the estimate the slots were sized with: that counts
+  // the buffers of lists built from the run file, twice the lists themselves.
   const std::uint64_t per_point = (compensated() ? 5 : 4) * sizeof(Vec3) + 2 * sizeof(Index);
-  const std::uint64_t per_slot =
-      std::max(slot_estimate_ + slot_estimate_ / 2, slot.bytes() + most_points * per_point);
+  const std::uint64_t per_slot = slot.bytes() + most_points * per_point;
   if (persistent_bytes() + slots_ * per_slot > options_.memory_budget) {
     release_block_lists();
     return;
   }
+  // Slots sized for blocks that build their lists from the run file hold less with the
+  // scratch: as many more in flight as now fit, up to the number asked for.
+  const std::uint64_t fit = (options_.memory_budget - persistent_bytes()) / std::max<std::uint64_t>(per_slot, 1);
+  slots_ = std::clamp<std::uint64_t>(fit, slots_, static_cast<std::uint64_t>(std::max(1, options_.tiles_in_flight)));
   ring_holds_ = {};
   blocks_refused_ = false;
 }
@@ -1601,17 +1627,20 @@ void Run::release_block_lists() {
   ring_holds_ = {};
 }
 
-void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s, int ring_buffer) {
+void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s, int ring_buffer, bool listed) {
   const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
   const bool cached = block_lists_ && h == block_lists_depth_;
+  require(!listed || (cached && ring_buffer >= 0), "a block in list order without its lists and rings");
   if (cached) load_block_lists(t, s);
   else build_block_lists(t, h, s, false);
   // Positions of step n: the tile's rows (in row order into `by_row`, moved into Morton order
-  // by compute()), then the rings read in ascending row order.
+  // by compute(), unless the source holds them in that order), then the rings read in
+  // ascending row order.
+  s.read_listed = listed && !s.order.empty();
   s.cur.resize(s.rows.size());
   s.next.resize(s.level_end[static_cast<std::size_t>(h) - 1]);
-  if (!s.order.empty()) s.by_row.resize(rows);
-  source.read_rows(begin, rows, (s.order.empty() ? s.cur : s.by_row).data()->data());
+  if (!s.order.empty() && !s.read_listed) s.by_row.resize(rows);
+  source.read_rows(begin, rows, (s.order.empty() || s.read_listed ? s.cur : s.by_row).data()->data());
   if (!s.sorted_rows.empty()) {
     s.scratch.resize(s.sorted_rows.size());
     if (cached && ring_buffer >= 0) ring_scratch_->read(ring_buffer, t, s.scratch.data());
@@ -1994,19 +2023,33 @@ bool Run::run_steps(OutOfCoreReport& report) {
     bool updated_ready = false;
     // Streamed steps: the buffer of the halo scratch this step writes.
     const int written_halos = target_buffer();
+    // Blocks with their lists and rings from the scratch; those of them that write list order.
+    bool scratch_block = false, block_list_order = false;
     if (blocks()) {
       // The block lists of this depth, made once (the first block at most reads them back);
       // the rings from the ring scratch where it holds the source's.
       {  // part of building the lists, as prepare_lists
         const auto tp = Clock::now();
         prepare_block_lists(block_depth(h));
+        if (block_slots.size() < slots_) {
+          slot_count = static_cast<std::size_t>(slots_);
+          block_slots.resize(slot_count);
+        }
         report.seconds_neighbors += seconds_since(tp);
         t0 += Clock::now() - tp;
       }
+      scratch_block = ring_scratch_ && block_depth(h) == block_lists_depth_;
       const int ring_from = ring_scratch_ ? buffer_holding_source(ring_holds_) : -1;
       if (ring_scratch_) ring_holds_[static_cast<std::size_t>(written_halos)] = false;
-      stages.read = [&, ring_from](std::size_t item, std::size_t slot) {
-        read_block(work[item], block_depth(h), source, block_slots[slot], ring_from);
+      // Blocks whose lists and rings come from the scratch write their tiles in Morton order
+      // (BlockSlot::order) where the next block reads them so too (it has the same depth: not
+      // the last block, nor one before a rebuild); nothing is moved into row order and back.
+      const bool listed_in = source_in_list_order();
+      block_list_order = scratch_block && local_order_ && !every_step && step + h < params_.steps &&
+                         !rebuild_due(step + h) && block_depth(block_length(step + h)) == block_lists_depth_;
+      stages.read = [&, ring_from, listed_in](std::size_t item, std::size_t slot) {
+        read_block(work[item], block_depth(h), source, block_slots[slot], ring_from, listed_in);
+        block_slots[slot].write_listed = block_list_order;
         // The plain updates of a compensated step, counted with the rest of the block.
         if (compensated()) block_slots[slot].updated.resize(block_slots[slot].cur.size());
         largest_local_ = std::max<std::uint64_t>(largest_local_, block_slots[slot].cur.size());
@@ -2020,7 +2063,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         const std::uint64_t begin = tiles_.offsets[b.tile], rows = tiles_.rows(b.tile);
         const Vec3* const result = b.tile_rows();
         target.write_rows(begin, rows, result->data(), h5::Transfer::Collective);
-        if (ring_scratch_) ring_scratch_->write(written_halos, b.tile, result);
+        if (scratch_block) ring_scratch_->write(written_halos, b.tile, b.cur.data());
         for (int j = 0; j < h; ++j) block_degenerate[static_cast<std::size_t>(j)] += b.degenerate[static_cast<std::size_t>(j)];
         if (every_step) {  // one step a block (temporal blocks refuse a lambda of every step)
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
@@ -2195,7 +2238,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       scratch_holds_[static_cast<std::size_t>(written_halos)] = true;
       report.halo_scratch = true;
     }
-    if (blocks() && ring_scratch_) {
+    if (scratch_block) {
       ring_holds_[static_cast<std::size_t>(written_halos)] = true;
       report.halo_scratch = true;
     }
@@ -2217,7 +2260,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     }
     step += h;
     state_[kCompletedSteps] = step;
-    state_[kStepBuffer] = target_code(list_order_step || streamed_list_order);
+    state_[kStepBuffer] = target_code(list_order_step || streamed_list_order || block_list_order);
     committed_here += h;
     const bool stopping = options_.stop_after_steps >= 0 && committed_here >= options_.stop_after_steps;
     if (ranks_->size() == 1 && step < params_.steps && !stopping) {
