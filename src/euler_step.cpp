@@ -397,7 +397,7 @@ POINTFAIR_INLINE Displacement fast_displacement(const Vec3& p, std::span<const I
 
 template <Kernel K, class Q>
 POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
-                                       const Neighborhoods& neighborhoods,
+                                       NeighborhoodsView neighborhoods,
                                        std::span<const Index> rows, const FlowParams& params,
                                        double lambda, bool gated, std::span<Vec3> next,
                                        std::size_t begin, std::size_t end) {
@@ -506,7 +506,7 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
 // and for AVX2. Only code inlined into the AVX2 one uses AVX2; what it calls (the slow path,
 // the normal's fallback) is the baseline's.
 template <Kernel K>
-std::size_t step_rows_plain(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+std::size_t step_rows_plain(std::span<const Vec3> current, NeighborhoodsView neighborhoods,
                             std::span<const Index> rows, const FlowParams& params, double lambda,
                             bool gated, std::span<Vec3> next, std::size_t begin, std::size_t end) {
   return step_rows<K, Split>(current, neighborhoods, rows, params, lambda, gated, next, begin, end);
@@ -516,7 +516,7 @@ std::size_t step_rows_plain(std::span<const Vec3> current, const Neighborhoods& 
 #define POINTFAIR_HAS_AVX2_KERNEL 1
 template <Kernel K>
 __attribute__((target("avx2"))) std::size_t step_rows_avx2(
-    std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+    std::span<const Vec3> current, NeighborhoodsView neighborhoods,
     std::span<const Index> rows, const FlowParams& params, double lambda, bool gated,
     std::span<Vec3> next, std::size_t begin, std::size_t end) {
   return step_rows<K, Wide>(current, neighborhoods, rows, params, lambda, gated, next, begin, end);
@@ -554,13 +554,13 @@ StepKernel default_step_kernel() {
   return kernel;
 }
 
-StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+StepStats euler_step(std::span<const Vec3> current, NeighborhoodsView neighborhoods,
                      std::span<const Index> rows, const FlowParams& params, double lambda,
                      std::span<Vec3> next) {
   return euler_step(current, neighborhoods, rows, params, lambda, next, default_step_kernel());
 }
 
-StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+StepStats euler_step(std::span<const Vec3> current, NeighborhoodsView neighborhoods,
                      std::span<const Index> rows, const FlowParams& params, double lambda,
                      std::span<Vec3> next, StepKernel simd) {
   const std::size_t n = neighborhoods.size();

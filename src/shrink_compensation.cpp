@@ -8,7 +8,7 @@
 namespace pointfair {
 
 void compensate_shrinkage(std::span<const Vec3> current, std::span<const Vec3> updated,
-                          const Neighborhoods& neighborhoods, std::span<const Index> rows,
+                          NeighborhoodsView neighborhoods, std::span<const Index> rows,
                           double beta, std::span<Vec3> next) {
   const std::size_t n = neighborhoods.size();
   require(beta >= 0.0 && beta <= 1.0, "shrink compensation must be in [0, 1]");

@@ -454,6 +454,32 @@ TEST(EulerStep, EachRowAloneGivesTheSameBits) {
   }
 }
 
+TEST(EulerStep, AViewOfSomeRowsGivesTheirBits) {
+  // NeighborhoodsView::rows: a run of rows stepped through a view of their lists (held by
+  // another array, as a mapped file holds them) comes out as in the whole step.
+  const std::vector<Vec3> points = test::noisy_cube(1500, 0.01, 29);
+  const Neighborhoods full = build_neighborhoods(points, knn(16));
+  const double lambda = auto_lambda(points, full, 2.0);
+  FlowParams params;
+  std::vector<Vec3> all(points.size());
+  euler_step(points, full, {}, params, lambda, all);
+  // The lists copied elsewhere, so that the view cannot lean on the Neighborhoods.
+  const std::vector<Index> indices = full.indices;
+  const std::vector<std::uint16_t> counts = full.counts;
+  const NeighborhoodsView view(full.stride, indices, counts, full.eps);
+  ASSERT_EQ(view.size(), points.size());
+  for (const auto& [first, count] : {std::pair<std::size_t, std::size_t>{0, 1500}, {0, 7}, {700, 333}, {1499, 1}}) {
+    std::vector<Index> rows(count);
+    std::iota(rows.begin(), rows.end(), static_cast<Index>(first));
+    const NeighborhoodsView part = view.rows(first, count);
+    ASSERT_EQ(part.size(), count);
+    EXPECT_EQ(part.of(0).size(), full.of(first).size());
+    std::vector<Vec3> some(count);
+    euler_step(points, part, rows, params, lambda, some);
+    for (std::size_t r = 0; r < count; ++r) ASSERT_EQ(some[r], all[first + r]) << "row " << first + r;
+  }
+}
+
 TEST(EulerStep, KernelChoiceFollowsTheCpuAndTheEnvironment) {
   // ctest runs the flow tests once more with POINTFAIR_NO_AVX2=1 (EulerStepPlainKernel).
   const char* off = std::getenv("POINTFAIR_NO_AVX2");

@@ -79,7 +79,7 @@ struct StepStats {
 
 /// One Euler step. Row r of `neighborhoods` belongs to point rows[r] of `current` (rows empty:
 /// row r is point r); next[r] receives its new position. `current` and `next` must not alias.
-StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+StepStats euler_step(std::span<const Vec3> current, NeighborhoodsView neighborhoods,
                      std::span<const Index> rows, const FlowParams& params, double lambda,
                      std::span<Vec3> next);
 
@@ -102,7 +102,7 @@ StepKernel default_step_kernel();
 
 /// euler_step with the hot loop on `kernel` (tests and benchmarks compare them); a kernel
 /// that is not available is a parameter error.
-StepStats euler_step(std::span<const Vec3> current, const Neighborhoods& neighborhoods,
+StepStats euler_step(std::span<const Vec3> current, NeighborhoodsView neighborhoods,
                      std::span<const Index> rows, const FlowParams& params, double lambda,
                      std::span<Vec3> next, StepKernel kernel);
 

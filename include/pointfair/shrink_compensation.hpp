@@ -29,7 +29,7 @@ namespace pointfair {
 /// compensated position of point rows[r]. `next` must not alias `current` or `updated`.
 /// beta in [0, 1]; 0 copies `updated` (bit for bit).
 void compensate_shrinkage(std::span<const Vec3> current, std::span<const Vec3> updated,
-                          const Neighborhoods& neighborhoods, std::span<const Index> rows,
+                          NeighborhoodsView neighborhoods, std::span<const Index> rows,
                           double beta, std::span<Vec3> next);
 
 }  // namespace pointfair
