@@ -2,10 +2,12 @@
 
 #include <fcntl.h>
 #include <stdlib.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
+#include <utility>
 
 #include "pointfair/io/point_table.hpp"
 
@@ -43,6 +45,40 @@ void ScratchFile::reserve(std::uint64_t bytes) {
   if (bytes == 0) return;
   const int e = ::posix_fallocate(fd_, 0, static_cast<off_t>(bytes));
   if (e != 0) throw io::IoError(name_ + ": cannot allocate " + std::to_string(bytes) + " bytes: " + std::strerror(e));
+}
+
+ScratchFile::Mapping::~Mapping() {
+  if (base_ != nullptr) ::munmap(base_, length_);
+}
+
+ScratchFile::Mapping::Mapping(Mapping&& other) noexcept
+    : base_(std::exchange(other.base_, nullptr)), length_(std::exchange(other.length_, 0)),
+      data_(std::exchange(other.data_, nullptr)), size_(std::exchange(other.size_, 0)) {}
+
+ScratchFile::Mapping& ScratchFile::Mapping::operator=(Mapping&& other) noexcept {
+  if (this != &other) {
+    if (base_ != nullptr) ::munmap(base_, length_);
+    base_ = std::exchange(other.base_, nullptr);
+    length_ = std::exchange(other.length_, 0);
+    data_ = std::exchange(other.data_, nullptr);
+    size_ = std::exchange(other.size_, 0);
+  }
+  return *this;
+}
+
+ScratchFile::Mapping ScratchFile::map(std::uint64_t offset, std::uint64_t bytes) const {
+  Mapping m;
+  if (bytes == 0) return m;
+  const auto page = static_cast<std::uint64_t>(::sysconf(_SC_PAGESIZE));
+  const std::uint64_t first = offset / page * page;
+  m.length_ = offset - first + bytes;
+  void* const base = ::mmap(nullptr, m.length_, PROT_READ, MAP_SHARED | MAP_POPULATE, fd_, static_cast<off_t>(first));
+  if (base == MAP_FAILED)
+    throw io::IoError(name_ + ": cannot map " + std::to_string(bytes) + " bytes: " + std::strerror(errno));
+  m.base_ = base;
+  m.data_ = static_cast<const unsigned char*>(base) + (offset - first);
+  m.size_ = bytes;
+  return m;
 }
 
 void ScratchFile::read(void* data, std::uint64_t bytes, std::uint64_t offset) const {

@@ -24,6 +24,30 @@ class ScratchFile {
   void write(const void* data, std::uint64_t bytes, std::uint64_t offset);
   const std::string& name() const { return name_; }
 
+  /// Bytes of the file mapped read-only into memory, its pages loaded at once (the kernel's
+  /// page cache, not a copy): unmapped when the Mapping goes. Valid after the ScratchFile is
+  /// gone. Its data is aligned as `offset` is to 4096.
+  class Mapping {
+   public:
+    Mapping() = default;
+    ~Mapping();
+    Mapping(Mapping&& other) noexcept;
+    Mapping& operator=(Mapping&& other) noexcept;
+    Mapping(const Mapping&) = delete;
+    Mapping& operator=(const Mapping&) = delete;
+    const unsigned char* data() const { return data_; }
+    std::uint64_t size() const { return size_; }
+
+   private:
+    friend class ScratchFile;
+    void* base_ = nullptr;
+    std::uint64_t length_ = 0;
+    const unsigned char* data_ = nullptr;
+    std::uint64_t size_ = 0;
+  };
+  /// Throws io::IoError "<name>: cannot map ...: <reason>".
+  Mapping map(std::uint64_t offset, std::uint64_t bytes) const;
+
  private:
   void transfer(bool reading, void* data, std::uint64_t bytes, std::uint64_t offset) const;
   std::string name_;

@@ -197,7 +197,12 @@ struct TileNeighbors {
 struct BlockSlot {
   std::size_t tile = 0;
   std::vector<std::size_t> level_end;      // end of level l in local indices, l = 0 .. h
-  std::vector<Neighborhoods> lists;        // lists of levels 0 .. h - 1, local indices
+  std::vector<Neighborhoods> lists;        // lists of levels 0 .. h - 1, local indices (built)
+  // What compute() reads: each level's lists (in `lists`, or in `mapped`), and where they lie
+  // one after the other (mapped), all levels as one (stride 0 otherwise).
+  std::vector<NeighborhoodsView> views;
+  NeighborhoodsView all;
+  ScratchFile::Mapping mapped;             // the block-lists scratch's record of the tile
   std::vector<Vec3> cur, next;
   std::vector<Vec3> updated;               // plain updates of a compensated step
   std::vector<Index> ids;                  // 0, 1, 2, ...
@@ -223,16 +228,17 @@ struct BlockSlot {
                       tiles::bytes(ids) +
                       tiles::bytes(degenerate) + tiles::bytes(rows) + tiles::bytes(sorted_rows) +
                       tiles::bytes(sorted_local) + tiles::bytes(global) + tiles::bytes(counts) + tiles::bytes(scratch) + ring_local.bytes() +
-                      tiles::bytes(order) + tiles::bytes(by_row);
+                      tiles::bytes(order) + tiles::bytes(by_row) + mapped.size() + tiles::bytes(views);
     for (const Neighborhoods& l : lists) b += tiles::bytes(l.indices) + tiles::bytes(l.counts);
     return b;
   }
+  std::size_t points() const { return level_end.back(); }
 
   // `beta`: SmoothParams::shrink_compensation (0: plain steps); the block has d = h levels
   // of lists, or 2 h when compensated.
   void compute(const FlowParams& flow, double lambda, double beta) {
     const std::size_t rings = beta > 0.0 ? 2 : 1;
-    const std::size_t d = lists.size(), h = d / rings;
+    const std::size_t d = views.size(), h = d / rings;
     const auto ids_of = [&](std::size_t l) {
       const std::size_t begin = l == 0 ? 0 : level_end[l - 1];
       return std::span<const Index>(ids.data() + begin, level_end[l] - begin);
@@ -252,17 +258,24 @@ struct BlockSlot {
       const std::size_t last = d - rings * j, reach = last + rings - 1;
       // An empty level (a tile without halo) is skipped: empty rows would mean "every point"
       // to the kernels.
-      if (ids_of(0).empty()) degenerate[j - 1] = 0;
-      for (std::size_t l = 0; l <= reach; ++l) {
-        if (ids_of(l).empty()) continue;
-        const StepStats stats =
-            euler_step(cur, lists[l], ids_of(l), flow, lambda, part(beta > 0.0 ? updated : next, l));
-        if (l == 0) degenerate[j - 1] = stats.degenerate;
+      // The tile's own points (their degenerate count is the step's), then the rings: as one
+      // range where their lists lie one after the other.
+      std::vector<Vec3>& out = beta > 0.0 ? updated : next;
+      degenerate[j - 1] = ids_of(0).empty() ? 0 : euler_step(cur, views[0], ids_of(0), flow, lambda, part(out, 0)).degenerate;
+      if (all.stride != 0 && reach >= 1) {
+        const std::size_t b = level_end[0], e = level_end[reach];
+        if (e > b)
+          euler_step(cur, all.rows(b, e - b), std::span<const Index>(ids.data() + b, e - b), flow, lambda,
+                     std::span<Vec3>(out.data() + b, e - b));
+      } else {
+        for (std::size_t l = 1; l <= reach; ++l)
+          if (!ids_of(l).empty()) euler_step(cur, views[l], ids_of(l), flow, lambda, part(out, l));
       }
       if (beta > 0.0)
         for (std::size_t l = 0; l <= last; ++l)
-          if (!ids_of(l).empty()) compensate_shrinkage(cur, std::span<const Vec3>(updated.data(), cur.size()), lists[l], ids_of(l),
-                                                     beta, part(next, l));
+          if (!ids_of(l).empty())
+            compensate_shrinkage(cur, std::span<const Vec3>(updated.data(), cur.size()), views[l], ids_of(l), beta,
+                                 part(next, l));
       // Levels 0 .. last now hold step j in `next`; the later steps read no level beyond
       // `last` (they reach one level less each), so the buffers trade places.
       std::swap(cur, next);
@@ -1428,6 +1441,9 @@ void Run::build_block_lists(std::size_t t, int h, BlockSlot& s, bool morton) {
   for (std::size_t i = 0; i < s.sorted_local.size(); ++i) s.sorted_rows[i] = s.rows[s.sorted_local[i]];
   list_rows_read_ += s.level_end[static_cast<std::size_t>(h) - 1];
   s.order.clear();
+  s.mapped = {};
+  s.all = {};
+  s.views.assign(s.lists.begin(), s.lists.end());
   if (!morton || rows < 2) return;
   // The tile's points renumbered in the Morton order of their input positions (as the single
   // steps' lists, TileNeighbors): the kernel then reads its neighbours from nearby memory. The
@@ -1450,17 +1466,23 @@ void Run::build_block_lists(std::size_t t, int h, BlockSlot& s, bool morton) {
   }
   top.indices = std::move(indices);
   top.counts = std::move(counts);
+  s.views[0] = top;
   for (std::size_t i = 0; i < rows; ++i) s.rows[i] = begin + s.order[i];
 }
 
 namespace {
 
-// A block's lists (BlockSlot) as one record of the block-lists scratch: its depth and the
-// length of its order, level_end, rows, each level's counts and lists, sorted_local, order.
+// A block's lists (BlockSlot) as one record of the block-lists scratch, each array starting
+// at a multiple of 8 bytes (a record's length is one): its depth and the length of its order,
+// level_end, the rings' rows ascending (sorted_rows) and their local indices (sorted_local),
+// the counts of every level's lists, then their entries (levels one after the other), order.
+constexpr std::uint64_t padded(std::uint64_t bytes) { return (bytes + 7) / 8 * 8; }
+
 template <class T>
 void put(std::vector<unsigned char>& out, const T* data, std::size_t count) {
   const auto* p = reinterpret_cast<const unsigned char*>(data);
   out.insert(out.end(), p, p + count * sizeof(T));
+  out.resize(padded(out.size()), 0);
 }
 
 }  // namespace
@@ -1468,58 +1490,65 @@ void put(std::vector<unsigned char>& out, const T* data, std::size_t count) {
 std::uint64_t Run::store_block_lists(const BlockSlot& s, std::uint64_t offset) {
   std::vector<unsigned char>& out = block_record_;
   out.clear();
-  const std::uint64_t levels = s.lists.size(), ordered = s.order.size();
-  put(out, &levels, 1);
-  put(out, &ordered, 1);
+  const std::uint64_t header[2] = {s.lists.size(), s.order.size()};
+  put(out, header, 2);
   put(out, s.level_end.data(), s.level_end.size());
-  put(out, s.rows.data(), s.rows.size());
-  for (const Neighborhoods& l : s.lists) {
-    put(out, l.counts.data(), l.counts.size());
-    put(out, l.indices.data(), l.indices.size());
-  }
+  put(out, s.sorted_rows.data(), s.sorted_rows.size());
   put(out, s.sorted_local.data(), s.sorted_local.size());
+  std::vector<std::uint16_t> counts;
+  for (const Neighborhoods& l : s.lists) counts.insert(counts.end(), l.counts.begin(), l.counts.end());
+  put(out, counts.data(), counts.size());
+  for (const Neighborhoods& l : s.lists) out.insert(out.end(), reinterpret_cast<const unsigned char*>(l.indices.data()),
+                                                    reinterpret_cast<const unsigned char*>(l.indices.data() + l.indices.size()));
+  out.resize(padded(out.size()), 0);
   put(out, s.order.data(), s.order.size());
   block_lists_->write(out.data(), out.size(), offset);
   return out.size();
 }
 
 void Run::load_block_lists(std::size_t t, BlockSlot& s) {
-  // The header (depth, order length, level_end), then each array straight into its place.
-  const std::uint64_t at = block_lists_at_[t - first_tile_], end = block_lists_at_[t - first_tile_ + 1];
+  // The record mapped (the page cache's pages, not a copy): the lists are read in place; the
+  // small arrays are copied out.
+  const std::uint64_t at = block_lists_at_[t - first_tile_], size = block_lists_at_[t - first_tile_ + 1] - at;
   const std::size_t d = static_cast<std::size_t>(block_lists_depth_), kk = static_cast<std::size_t>(k());
-  std::uint64_t offset = at;
-  const auto take = [&](auto& v, std::size_t count) {
+  s.mapped = block_lists_->map(at, size);
+  const unsigned char* p = s.mapped.data();
+  const unsigned char* const end = p + size;
+  const auto next = [&](std::uint64_t bytes) {
+    require(static_cast<std::uint64_t>(end - p) >= padded(bytes), "block lists: a record cut short");
+    const unsigned char* const q = p;
+    p += padded(bytes);
+    return q;
+  };
+  const auto copy = [&](auto& v, std::size_t count) {
     using T = typename std::decay_t<decltype(v)>::value_type;
-    require(offset + count * sizeof(T) <= end, "block lists: a record cut short");
     v.resize(count);
-    if (count > 0) block_lists_->read(v.data(), count * sizeof(T), offset);
-    offset += count * sizeof(T);
+    const unsigned char* const q = next(count * sizeof(T));
+    if (count > 0) std::memcpy(v.data(), q, count * sizeof(T));
   };
   std::array<std::uint64_t, 2> header{};
-  require(end - at >= sizeof(header), "block lists: a record cut short");
-  block_lists_->read(header.data(), sizeof(header), offset);
-  offset += sizeof(header);
+  std::memcpy(header.data(), next(sizeof(header)), sizeof(header));
   require(header[0] == d, "block lists: a record of another depth");
   s.tile = t;
-  take(s.level_end, d + 1);
+  copy(s.level_end, d + 1);
   require(header[1] == 0 || header[1] == s.level_end[0], "block lists: an order of the wrong length");
-  take(s.rows, s.level_end[d]);
-  s.lists.resize(d);
+  const std::size_t rings = s.level_end[d] - s.level_end[0], listed = s.level_end[d - 1];
+  copy(s.sorted_rows, rings);
+  copy(s.sorted_local, rings);
+  const auto* counts = reinterpret_cast<const std::uint16_t*>(next(listed * sizeof(std::uint16_t)));
+  const auto* indices = reinterpret_cast<const Index*>(next(listed * kk * sizeof(Index)));
+  copy(s.order, header[1]);
+  require(p == end, "block lists: a record longer than its content");
+  s.all = NeighborhoodsView(k(), std::span<const Index>(indices, listed * kk), std::span<const std::uint16_t>(counts, listed), eps_);
+  s.views.resize(d);
   for (std::size_t l = 0; l < d; ++l) {
-    const std::size_t count = s.level_end[l] - (l == 0 ? 0 : s.level_end[l - 1]);
-    Neighborhoods& nb = s.lists[l];
-    nb.stride = k();
-    nb.eps = eps_;
-    take(nb.counts, count);
-    take(nb.indices, count * kk);
+    const std::size_t first = l == 0 ? 0 : s.level_end[l - 1];
+    s.views[l] = s.all.rows(first, s.level_end[l] - first);
   }
-  take(s.sorted_local, s.level_end[d] - s.level_end[0]);
-  take(s.order, header[1]);
-  require(offset == end, "block lists: a record longer than its content");
+  s.lists.clear();  // the built lists of an earlier block: not needed
+  free_vector(s.rows);
   s.degenerate.assign(d, 0);
-  s.sorted_rows.resize(s.sorted_local.size());
-  for (std::size_t i = 0; i < s.sorted_local.size(); ++i) s.sorted_rows[i] = s.rows[s.sorted_local[i]];
-  list_rows_read_ += s.level_end[d - 1];
+  list_rows_read_ += listed;
 }
 
 void Run::prepare_block_lists(int d) {
@@ -1637,7 +1666,7 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
   // by compute(), unless the source holds them in that order), then the rings read in
   // ascending row order.
   s.read_listed = listed && !s.order.empty();
-  s.cur.resize(s.rows.size());
+  s.cur.resize(s.points());
   s.next.resize(s.level_end[static_cast<std::size_t>(h) - 1]);
   if (!s.order.empty() && !s.read_listed) s.by_row.resize(rows);
   source.read_rows(begin, rows, (s.order.empty() || s.read_listed ? s.cur : s.by_row).data()->data());
@@ -1651,7 +1680,7 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
     s.ids.resize(s.next.size());
     std::iota(s.ids.begin(), s.ids.end(), Index{0});
   }
-  rows_read_ += s.rows.size();
+  rows_read_ += s.points();
 }
 
 std::size_t Run::pipeline_slots(std::uint64_t fixed) {
@@ -2064,6 +2093,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         const Vec3* const result = b.tile_rows();
         target.write_rows(begin, rows, result->data(), h5::Transfer::Collective);
         if (scratch_block) ring_scratch_->write(written_halos, b.tile, b.cur.data());
+        b.mapped = {};  // the tile's lists, mapped: unmapped as soon as it is done
         for (int j = 0; j < h; ++j) block_degenerate[static_cast<std::size_t>(j)] += b.degenerate[static_cast<std::size_t>(j)];
         if (every_step) {  // one step a block (temporal blocks refuse a lambda of every step)
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);

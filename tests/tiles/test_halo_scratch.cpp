@@ -88,4 +88,28 @@ TEST_F(HaloScratchTest, RefusesBadHalosAndNamesAMissingDirectory) {
   }
 }
 
+TEST_F(HaloScratchTest, AMappingShowsTheBytesWrittenAtAnyOffset) {
+  // ScratchFile::map: ranges starting inside a page and spanning several, read in place; a
+  // mapping outlives its file and moves; an empty one maps nothing.
+  std::vector<unsigned char> bytes(3 * 4096 + 123);
+  for (std::size_t i = 0; i < bytes.size(); ++i) bytes[i] = static_cast<unsigned char>((i * 7 + 3) % 251);
+  ScratchFile::Mapping kept;
+  {
+    ScratchFile file(dir_, "lists");
+    file.write(bytes.data(), bytes.size(), 0);
+    for (const auto& [offset, length] : {std::pair<std::uint64_t, std::uint64_t>{0, 10}, {8, 4096}, {4095, 2}, {1000, 10000}}) {
+      const ScratchFile::Mapping m = file.map(offset, length);
+      ASSERT_EQ(m.size(), length);
+      for (std::uint64_t i = 0; i < length; ++i) ASSERT_EQ(m.data()[i], bytes[offset + i]) << offset << " + " << i;
+    }
+    EXPECT_EQ(file.map(100, 0).size(), 0u);
+    ScratchFile::Mapping moved = file.map(4104, 16);
+    kept = std::move(moved);
+    EXPECT_EQ(moved.data(), nullptr);
+  }
+  ASSERT_EQ(kept.size(), 16u);
+  for (std::uint64_t i = 0; i < 16; ++i) EXPECT_EQ(kept.data()[i], bytes[4104 + i]);
+  EXPECT_TRUE(std::filesystem::is_empty(dir_));
+}
+
 }  // namespace
