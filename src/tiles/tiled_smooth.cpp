@@ -495,6 +495,7 @@ class Run {
   std::array<bool, 2> ring_holds_{};
   bool blocks_refused_ = false;
   bool caching_ = true;
+  bool ran_blocks_ = false;  // a step ran as blocks, whose lists the cache does not hold
   // Whether the run file has kLocalOrder (tile lists in Morton order, see TileNeighbors).
   bool local_order_ = false;
   std::uint64_t cache_bytes_ = 0;
@@ -2068,6 +2069,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         t0 += Clock::now() - tp;
       }
       scratch_block = ring_scratch_ && block_depth(h) == block_lists_depth_;
+      ran_blocks_ = true;
       const int ring_from = ring_scratch_ ? buffer_holding_source(ring_holds_) : -1;
       if (ring_scratch_) ring_holds_[static_cast<std::size_t>(written_halos)] = false;
       // Blocks whose lists and rings come from the scratch write their tiles in Morton order
@@ -2588,7 +2590,7 @@ OutOfCoreReport Run::run() {
   release_scratch();
   const bool finish_done = steps_done && run_finish(report);
   if (!finish_done) {
-    report.neighbors_cached = caching_;
+    report.neighbors_cached = caching_ && !ran_blocks_;
     report.tiles_in_flight = static_cast<int>(std::max(slots_, most_in_flight_));
     report.peak_accounted_bytes = peak_;
     report.largest_tile_with_halo = largest_local_;
@@ -2616,7 +2618,7 @@ OutOfCoreReport Run::run() {
   if (ranks_->rank() == 0) finish(attributes_degenerate, lambda);
   ranks_->barrier();  // the run is in place when any rank returns
   report.finished = true;
-  report.neighbors_cached = caching_;
+  report.neighbors_cached = caching_ && !ran_blocks_;
   report.tiles_in_flight = static_cast<int>(std::max(slots_, most_in_flight_));
   report.peak_accounted_bytes = peak_;
   report.largest_tile_with_halo = largest_local_;

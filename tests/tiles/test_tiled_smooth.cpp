@@ -445,6 +445,7 @@ TEST_F(TiledSmoothTest, TemporalBlocksGiveTheSameBits) {
         // The blocks' lists and rings' positions from their scratch files (the ring scratch
         // is read from the second block of a depth on).
         EXPECT_TRUE(r.halo_scratch);
+        EXPECT_FALSE(r.neighbors_cached) << "blocks read their lists from the scratch, not the cache";
         std::filesystem::remove(path("run.h5"));
         // Stopped after the first block, resumed (with the other block length).
         expect_stopped_and_resumed_identical(params, options, 5 - h, ref);
