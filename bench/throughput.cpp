@@ -17,7 +17,9 @@
 // for 1..all threads, each paired with an in-core run and reported as a ratio to it. Without
 // --ooc-budget a second such section streams: a budget of 64 bytes a point (at least 16 MiB)
 // keeps neither the lists nor the positions in memory between steps, as for a cloud larger
-// than the memory ("out_of_core_streamed" in the JSON).
+// than the memory ("out_of_core_streamed" in the JSON). That section runs temporal blocks of
+// 4 steps unless --ooc-temporal-block says otherwise (for both sections; 1: single steps):
+// the setting for such a cloud, with the lambda then measured once in both runs.
 // --out-of-core-only measures those sections alone (no build rate, step table or full run).
 //
 // --neighbors-only times the neighbourhood build alone (the path build_neighborhoods takes;
@@ -186,6 +188,7 @@ int main(int argc, char** argv) {
   bool memory = true, cgal = true, neighbors_only = false, kd_tree = false;
   bool out_of_core = true, out_of_core_only = false;
   bench::OutOfCoreRateOptions ooc;
+  bool temporal_given = false;
   bool budget_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -201,7 +204,10 @@ int main(int argc, char** argv) {
       budget_given = true;
     }
     else if (a == "--ooc-tile-points" && has_value) ooc.tile_points = std::strtoull(argv[++i], nullptr, 10);
-    else if (a == "--ooc-temporal-block" && has_value) ooc.temporal_block = std::atoi(argv[++i]);
+    else if (a == "--ooc-temporal-block" && has_value) {
+      ooc.temporal_block = std::atoi(argv[++i]);
+      temporal_given = true;
+    }
     else if (a == "--points" && has_value) points = std::strtoull(argv[++i], nullptr, 10);
     else if (a == "--steps" && has_value) steps = std::atoi(argv[++i]);
     else if (a == "--k" && has_value) k = std::atoi(argv[++i]);
@@ -245,6 +251,7 @@ int main(int argc, char** argv) {
   bench::OutOfCoreRateOptions streamed = ooc;
   streamed.memory_budget = bench::streamed_budget(points);
   streamed.tile_points = 0;
+  if (!temporal_given) streamed.temporal_block = bench::kStreamedTemporalBlock;
   const auto measure_ooc = [&](const bench::OutOfCoreRateOptions& options) -> std::optional<bench::OutOfCoreSection> {
     try {
       return bench::measure_out_of_core(cloud, k, cores, repeats,
