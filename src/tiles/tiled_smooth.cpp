@@ -1659,10 +1659,17 @@ void Run::release_block_lists() {
 
 void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot& s, int ring_buffer, bool listed) {
   const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
-  const bool cached = block_lists_ && h == block_lists_depth_;
+  // A shorter block than the scratch's (the last, or the last before a rebuild) takes the
+  // first h levels of its closure: the closure of depth h.
+  const bool cached = block_lists_ && h <= block_lists_depth_;
   require(!listed || (cached && ring_buffer >= 0), "a block in list order without its lists and rings");
-  if (cached) load_block_lists(t, s);
-  else build_block_lists(t, h, s, false);
+  if (cached) {
+    load_block_lists(t, s);
+    s.views.resize(static_cast<std::size_t>(h));
+    s.degenerate.assign(static_cast<std::size_t>(h), 0);
+  } else {
+    build_block_lists(t, h, s, false);
+  }
   // Positions of step n: the tile's rows (in row order into `by_row`, moved into Morton order
   // by compute(), unless the source holds them in that order), then the rings read in
   // ascending row order.
@@ -2056,8 +2063,9 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // Blocks with their lists and rings from the scratch; those of them that write list order.
     bool scratch_block = false, block_list_order = false;
     if (blocks()) {
-      // The block lists of this depth, made once (the first block at most reads them back);
-      // the rings from the ring scratch where it holds the source's.
+      // The block lists of this depth, made once (the first block at most reads them back;
+      // the blocks after it are no deeper until the next rebuild); the rings from the ring
+      // scratch where it holds the source's.
       {  // part of building the lists, as prepare_lists
         const auto tp = Clock::now();
         prepare_block_lists(block_depth(h));
@@ -2068,16 +2076,17 @@ bool Run::run_steps(OutOfCoreReport& report) {
         report.seconds_neighbors += seconds_since(tp);
         t0 += Clock::now() - tp;
       }
-      scratch_block = ring_scratch_ && block_depth(h) == block_lists_depth_;
+      scratch_block = ring_scratch_ && block_depth(h) <= block_lists_depth_;
       ran_blocks_ = true;
       const int ring_from = ring_scratch_ ? buffer_holding_source(ring_holds_) : -1;
       if (ring_scratch_) ring_holds_[static_cast<std::size_t>(written_halos)] = false;
       // Blocks whose lists and rings come from the scratch write their tiles in Morton order
-      // (BlockSlot::order) where the next block reads them so too (it has the same depth: not
-      // the last block, nor one before a rebuild); nothing is moved into row order and back.
+      // (BlockSlot::order) where the next block reads them so too (its lists come from the
+      // scratch: not the last block, nor one before a rebuild); nothing is moved into row
+      // order and back.
       const bool listed_in = source_in_list_order();
       block_list_order = scratch_block && local_order_ && !every_step && step + h < params_.steps &&
-                         !rebuild_due(step + h) && block_depth(block_length(step + h)) == block_lists_depth_;
+                         !rebuild_due(step + h) && block_depth(block_length(step + h)) <= block_lists_depth_;
       stages.read = [&, ring_from, listed_in](std::size_t item, std::size_t slot) {
         read_block(work[item], block_depth(h), source, block_slots[slot], ring_from, listed_in);
         block_slots[slot].write_listed = block_list_order;
