@@ -429,6 +429,11 @@ class Run {
   // The buffer (0 or 1) of a halo or ring scratch that holds the current source's positions,
   // by the scratch's `holds`; -1 when none does.
   int buffer_holding_source(const std::array<bool, 2>& holds) const;
+  int ring_buffer_holding_source() const;
+  // Tile u's points in the order the blocks give them to the ring scratch (BlockSlot::order).
+  std::vector<Index> block_order(std::size_t u) const;
+  // Every tile's positions of `source` into buffer b of the ring scratch.
+  void fill_ring_scratch(const h5::Dataset& source, int b);
   // The room kept for the tiles in flight.
   std::uint64_t slots_room() const { return slots_ * (slot_estimate_ + slot_estimate_ / 2); }
   int block_length(int step) const;
@@ -492,7 +497,8 @@ class Run {
   int block_lists_depth_ = 0;
   std::vector<unsigned char> block_record_;
   std::unique_ptr<HaloScratch> ring_scratch_;
-  std::array<bool, 2> ring_holds_{};
+  // The positions each buffer of the ring scratch holds: the name of their dataset (empty: none).
+  std::array<std::string, 2> ring_holds_{};
   bool blocks_refused_ = false;
   bool caching_ = true;
   bool ran_blocks_ = false;  // a step ran as blocks, whose lists the cache does not hold
@@ -1591,18 +1597,7 @@ void Run::prepare_block_lists(int d) {
     }
     block_lists_at_[end_tile_ - first_tile_] = offset;
     // The blocks give it each tile's points in their Morton order (BlockSlot::cur).
-    const auto order_of = [this](std::size_t u) {
-      std::vector<Index> order;
-      if (tiles_.rows(u) < 2) return order;
-      if (!local_order_) {
-        std::vector<Vec3> p(tiles_.rows(u));
-        file().dataset(layout::positions).read_rows(tiles_.offsets[u], tiles_.rows(u), p.data()->data());
-        return spatial_order(p);
-      }
-      order.resize(tiles_.rows(u));
-      file().dataset(kLocalOrder).read_rows(tiles_.offsets[u], tiles_.rows(u), order.data());
-      return order;
-    };
+    const auto order_of = [this](std::size_t u) { return block_order(u); };
     ring_scratch_ = std::make_unique<HaloScratch>(directory, output_.string() + " (ring scratch)", rings,
                                                   tiles_.offsets, first_tile_, end_tile_, order_of);
   } catch (const io::IoError&) {
@@ -1640,6 +1635,45 @@ void Run::release_scratch() {
 fs::path Run::scratch_directory() const {
   const fs::path directory = output_.parent_path();
   return directory.empty() ? fs::path(".") : directory;
+}
+
+std::vector<Index> Run::block_order(std::size_t u) const {
+  std::vector<Index> order;
+  if (tiles_.rows(u) < 2) return order;
+  if (!local_order_) {
+    std::vector<Vec3> p(tiles_.rows(u));
+    file().dataset(layout::positions).read_rows(tiles_.offsets[u], tiles_.rows(u), p.data()->data());
+    return spatial_order(p);
+  }
+  order.resize(tiles_.rows(u));
+  file().dataset(kLocalOrder).read_rows(tiles_.offsets[u], tiles_.rows(u), order.data());
+  return order;
+}
+
+void Run::fill_ring_scratch(const h5::Dataset& source, int b) {
+  // One contiguous read a tile, rather than each block reading its rings from the run file
+  // (one selection of many short runs a tile).
+  std::vector<Vec3> by_row, ordered;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    const std::uint64_t rows = tiles_.rows(t);
+    if (rows == 0) continue;
+    by_row.resize(rows);
+    source.read_rows(tiles_.offsets[t], rows, by_row.data()->data());
+    const std::vector<Index> order = block_order(t);
+    if (!order.empty()) {
+      ordered.resize(rows);
+      for (std::size_t i = 0; i < rows; ++i) ordered[i] = by_row[order[i]];
+    }
+    account(bytes(by_row) + bytes(ordered) + bytes(order));
+    ring_scratch_->write(b, t, (order.empty() ? by_row : ordered).data());
+  }
+  ring_holds_[static_cast<std::size_t>(b)] = current_source();
+}
+
+int Run::ring_buffer_holding_source() const {
+  for (int b = 0; b < 2; ++b)
+    if (ring_holds_[static_cast<std::size_t>(b)] == current_source()) return b;
+  return -1;
 }
 
 int Run::buffer_holding_source(const std::array<bool, 2>& holds) const {
@@ -2078,8 +2112,14 @@ bool Run::run_steps(OutOfCoreReport& report) {
       }
       scratch_block = ring_scratch_ && block_depth(h) <= block_lists_depth_;
       ran_blocks_ = true;
-      const int ring_from = ring_scratch_ ? buffer_holding_source(ring_holds_) : -1;
-      if (ring_scratch_) ring_holds_[static_cast<std::size_t>(written_halos)] = false;
+      int ring_from = ring_scratch_ ? ring_buffer_holding_source() : -1;
+      if (scratch_block && ring_from < 0) {
+        // The first block of a call or after a rebuild: the rings' positions into the buffer
+        // this block does not write.
+        ring_from = 1 - written_halos;
+        fill_ring_scratch(source, ring_from);
+      }
+      if (ring_scratch_) ring_holds_[static_cast<std::size_t>(written_halos)].clear();
       // Blocks whose lists and rings come from the scratch write their tiles in Morton order
       // (BlockSlot::order) where the next block reads them so too (its lists come from the
       // scratch: not the last block, nor one before a rebuild); nothing is moved into row
@@ -2280,7 +2320,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       report.halo_scratch = true;
     }
     if (scratch_block) {
-      ring_holds_[static_cast<std::size_t>(written_halos)] = true;
+      ring_holds_[static_cast<std::size_t>(written_halos)] = positions_buffer(written_halos);
       report.halo_scratch = true;
     }
     // Collective writes: as many per rank as the rank with the most tiles.
