@@ -407,7 +407,7 @@ class Run {
   std::int64_t target_code(bool list_order) const { return target_buffer() + (list_order ? 3 : 1); }
   void to_row_order();
   // A block of depth h of tile t into `s`: its lists (from the block-lists scratch when it has
-  // that depth, else built from the run file's lists), then its positions of `source`, the
+  // at least that depth, else built from the run file's lists), then its positions of `source`, the
   // rings' from buffer `ring_buffer` of the ring scratch when it is 0 or 1 (and the lists
   // came from the scratch). `listed`: the source holds the tile in its lists' order (only
   // with lists and rings from the scratch).
@@ -427,9 +427,9 @@ class Run {
   // Where the scratch files go: the output's directory.
   fs::path scratch_directory() const;
   // The buffer (0 or 1) of a halo or ring scratch that holds the current source's positions,
-  // by the scratch's `holds`; -1 when none does.
-  int buffer_holding_source(const std::array<bool, 2>& holds) const;
-  int ring_buffer_holding_source() const;
+  // by the scratch's `holds` (per buffer, the dataset whose positions it holds; empty: none);
+  // -1 when none does.
+  int buffer_holding_source(const std::array<std::string, 2>& holds) const;
   // Tile u's points in the order the blocks give them to the ring scratch (BlockSlot::order).
   std::vector<Index> block_order(std::size_t u) const;
   // Every tile's positions of `source` into buffer b of the ring scratch.
@@ -483,10 +483,10 @@ class Run {
   std::vector<char> local_written_;
   std::vector<std::vector<std::uint64_t>> halo_rows_;
   std::uint64_t halo_bytes_ = 0;
-  // Streamed steps' halos (streamed_halos), and whether buffer b of it holds the halos of
-  // positions_buffer(b) as it now is.
+  // Streamed steps' halos (streamed_halos), and the dataset whose halos each buffer of it
+  // holds (positions_buffer(b) as it now is; empty: none).
   std::unique_ptr<HaloScratch> halo_scratch_;
-  std::array<bool, 2> scratch_holds_{};
+  std::array<std::string, 2> scratch_holds_{};
   bool scratch_refused_ = false;
   // Streamed blocks (temporal blocks, compensated steps): every tile's lists of a block of
   // depth block_lists_depth_ (BlockSlot) in a scratch file, from block_lists_at_[t - first
@@ -1670,15 +1670,9 @@ void Run::fill_ring_scratch(const h5::Dataset& source, int b) {
   ring_holds_[static_cast<std::size_t>(b)] = current_source();
 }
 
-int Run::ring_buffer_holding_source() const {
+int Run::buffer_holding_source(const std::array<std::string, 2>& holds) const {
   for (int b = 0; b < 2; ++b)
-    if (ring_holds_[static_cast<std::size_t>(b)] == current_source()) return b;
-  return -1;
-}
-
-int Run::buffer_holding_source(const std::array<bool, 2>& holds) const {
-  for (int b = 0; b < 2; ++b)
-    if (holds[static_cast<std::size_t>(b)] && current_source() == positions_buffer(b)) return b;
+    if (holds[static_cast<std::size_t>(b)] == current_source()) return b;
   return -1;
 }
 
@@ -2112,7 +2106,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       }
       scratch_block = ring_scratch_ && block_depth(h) <= block_lists_depth_;
       ran_blocks_ = true;
-      int ring_from = ring_scratch_ ? ring_buffer_holding_source() : -1;
+      int ring_from = ring_scratch_ ? buffer_holding_source(ring_holds_) : -1;
       if (scratch_block && ring_from < 0) {
         // The first block of a call or after a rebuild: the rings' positions into the buffer
         // this block does not write.
@@ -2242,7 +2236,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // Streamed: each tile's halo from the halo scratch where it holds the source's (the
     // previous step wrote it), else from the run file; the step writes the target's.
     const int halos_from = halos != nullptr ? buffer_holding_source(scratch_holds_) : -1;
-    if (halos != nullptr) scratch_holds_[static_cast<std::size_t>(written_halos)] = false;
+    if (halos != nullptr) scratch_holds_[static_cast<std::size_t>(written_halos)].clear();
     // A source in list order was written by the previous step of this call, with the halos.
     const bool source_listed = source_in_list_order();
     require(!source_listed || halos_from >= 0, "a streamed step in list order without its halos");
@@ -2316,7 +2310,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     run_pipeline(work.size(), in_flight, stages);
     if (holding_) held_cur_ = 1 - held_cur_;
     if (halos != nullptr) {
-      scratch_holds_[static_cast<std::size_t>(written_halos)] = true;
+      scratch_holds_[static_cast<std::size_t>(written_halos)] = positions_buffer(written_halos);
       report.halo_scratch = true;
     }
     if (scratch_block) {
