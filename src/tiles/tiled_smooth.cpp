@@ -416,7 +416,9 @@ class Run {
   // `morton`: the tile's points in Morton order (BlockSlot::order).
   void build_block_lists(std::size_t t, int h, BlockSlot& s, bool morton);
   std::uint64_t store_block_lists(const BlockSlot& s, std::uint64_t offset);
-  void load_block_lists(std::size_t t, BlockSlot& s);
+  // Tile t's record of the scratch into `s`, as a block of depth h (at most the scratch's:
+  // the first h levels of its closure).
+  void load_block_lists(std::size_t t, int h, BlockSlot& s);
   // The block-lists and ring scratch for blocks of depth d (single process, where they can be
   // made and fit in the budget; else blocks build their lists from the run file as before).
   void prepare_block_lists(int d);
@@ -1486,10 +1488,15 @@ namespace {
 constexpr std::uint64_t padded(std::uint64_t bytes) { return (bytes + 7) / 8 * 8; }
 
 template <class T>
-void put(std::vector<unsigned char>& out, const T* data, std::size_t count) {
+void append(std::vector<unsigned char>& out, const T* data, std::size_t count) {
   const auto* p = reinterpret_cast<const unsigned char*>(data);
   out.insert(out.end(), p, p + count * sizeof(T));
-  out.resize(padded(out.size()), 0);
+}
+void pad(std::vector<unsigned char>& out) { out.resize(padded(out.size()), 0); }
+template <class T>
+void put(std::vector<unsigned char>& out, const T* data, std::size_t count) {
+  append(out, data, count);
+  pad(out);
 }
 
 }  // namespace
@@ -1502,18 +1509,16 @@ std::uint64_t Run::store_block_lists(const BlockSlot& s, std::uint64_t offset) {
   put(out, s.level_end.data(), s.level_end.size());
   put(out, s.sorted_rows.data(), s.sorted_rows.size());
   put(out, s.sorted_local.data(), s.sorted_local.size());
-  std::vector<std::uint16_t> counts;
-  for (const Neighborhoods& l : s.lists) counts.insert(counts.end(), l.counts.begin(), l.counts.end());
-  put(out, counts.data(), counts.size());
-  for (const Neighborhoods& l : s.lists) out.insert(out.end(), reinterpret_cast<const unsigned char*>(l.indices.data()),
-                                                    reinterpret_cast<const unsigned char*>(l.indices.data() + l.indices.size()));
-  out.resize(padded(out.size()), 0);
+  for (const Neighborhoods& l : s.lists) append(out, l.counts.data(), l.counts.size());
+  pad(out);
+  for (const Neighborhoods& l : s.lists) append(out, l.indices.data(), l.indices.size());
+  pad(out);
   put(out, s.order.data(), s.order.size());
   block_lists_->write(out.data(), out.size(), offset);
   return out.size();
 }
 
-void Run::load_block_lists(std::size_t t, BlockSlot& s) {
+void Run::load_block_lists(std::size_t t, int h, BlockSlot& s) {
   // The record mapped (the page cache's pages, not a copy): the lists are read in place; the
   // small arrays are copied out.
   const std::uint64_t at = block_lists_at_[t - first_tile_], size = block_lists_at_[t - first_tile_ + 1] - at;
@@ -1547,14 +1552,15 @@ void Run::load_block_lists(std::size_t t, BlockSlot& s) {
   copy(s.order, header[1]);
   require(p == end, "block lists: a record longer than its content");
   s.all = NeighborhoodsView(k(), std::span<const Index>(indices, listed * kk), std::span<const std::uint16_t>(counts, listed), eps_);
-  s.views.resize(d);
-  for (std::size_t l = 0; l < d; ++l) {
+  const std::size_t levels = static_cast<std::size_t>(h);
+  s.views.resize(levels);
+  for (std::size_t l = 0; l < levels; ++l) {
     const std::size_t first = l == 0 ? 0 : s.level_end[l - 1];
     s.views[l] = s.all.rows(first, s.level_end[l] - first);
   }
   s.lists.clear();  // the built lists of an earlier block: not needed
   free_vector(s.rows);
-  s.degenerate.assign(d, 0);
+  s.degenerate.assign(levels, 0);
   list_rows_read_ += listed;
 }
 
@@ -1691,13 +1697,8 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
   // first h levels of its closure: the closure of depth h.
   const bool cached = block_lists_ && h <= block_lists_depth_;
   require(!listed || (cached && ring_buffer >= 0), "a block in list order without its lists and rings");
-  if (cached) {
-    load_block_lists(t, s);
-    s.views.resize(static_cast<std::size_t>(h));
-    s.degenerate.assign(static_cast<std::size_t>(h), 0);
-  } else {
-    build_block_lists(t, h, s, false);
-  }
+  if (cached) load_block_lists(t, h, s);
+  else build_block_lists(t, h, s, false);
   // Positions of step n: the tile's rows (in row order into `by_row`, moved into Morton order
   // by compute(), unless the source holds them in that order), then the rings read in
   // ascending row order.
