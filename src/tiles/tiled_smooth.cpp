@@ -222,6 +222,9 @@ struct BlockSlot {
   // A block whose source holds the tile in that order (written so by the previous block):
   // read straight into `cur`. One that writes it so: `cur` is the result, `by_row` unused.
   bool read_listed = false, write_listed = false;
+  // bytes() as the writing thread last measured it, between the slot's compute stages: the
+  // compute trades `cur` and `next`, so the slot's vectors are not read while it runs.
+  std::uint64_t accounted = 0;
 
   std::uint64_t bytes() const {
     std::uint64_t b = tiles::bytes(level_end) + tiles::bytes(cur) + tiles::bytes(next) + tiles::bytes(updated) +
@@ -2002,7 +2005,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
   std::vector<BlockSlot> block_slots(blocks() ? slot_count : 0);
   const auto block_bytes = [&] {
     std::uint64_t total = 0;
-    for (const BlockSlot& b : block_slots) total += b.bytes();
+    for (const BlockSlot& b : block_slots) total += b.accounted;
     return total;
   };
   // The commit of a step (commit_state) mostly waits for the disk. In a single process it is
@@ -2128,6 +2131,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         // The plain updates of a compensated step, counted with the rest of the block.
         if (compensated()) block_slots[slot].updated.resize(block_slots[slot].cur.size());
         largest_local_ = std::max<std::uint64_t>(largest_local_, block_slots[slot].cur.size());
+        block_slots[slot].accounted = block_slots[slot].bytes();
         account(block_bytes() + bytes(identity));
       };
       stages.compute = [&](std::size_t slot) {
@@ -2140,6 +2144,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         target.write_rows(begin, rows, result->data(), h5::Transfer::Collective);
         if (scratch_block) ring_scratch_->write(written_halos, b.tile, b.cur.data());
         b.mapped = {};  // the tile's lists, mapped: unmapped as soon as it is done
+        b.accounted = b.bytes();
         for (int j = 0; j < h; ++j) block_degenerate[static_cast<std::size_t>(j)] += b.degenerate[static_cast<std::size_t>(j)];
         if (every_step) {  // one step a block (temporal blocks refuse a lambda of every step)
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
@@ -2251,6 +2256,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
       read_tile_positions(s.tile, *s.nb, source, s.local, s.next, false, halos_from, s.read_in_list_order);
       rows_read_ += s.local.size();
       s.next.resize(tiles_.rows(s.tile));
+      // Sized here, not by the compute: this thread reads every slot's vectors (slots_bytes).
+      if (streamed_list_order && every_step && !s.nb->order.empty()) s.slot_of.resize(tiles_.rows(s.tile));
       largest_local_ = std::max<std::uint64_t>(largest_local_, s.local.size());
       account(slots_bytes());
     };
@@ -2265,7 +2272,6 @@ bool Run::run_steps(OutOfCoreReport& report) {
       if (!streamed_list_order) {
         s.nb->to_rows(s.next, s.local, rows);
       } else if (every_step) {
-        s.slot_of.resize(rows);
         parallel_for(rows, [&](std::size_t b, std::size_t e) {
           for (std::size_t i = b; i < e; ++i) s.slot_of[order[i]] = static_cast<Index>(i);
         }, 8192);
