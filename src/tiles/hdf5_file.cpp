@@ -297,6 +297,14 @@ void File::flush() {
   }
 }
 
+void File::start_writeback() const {
+  if (parallel_) return;
+  const int fd = ::open(name_.c_str(), O_RDONLY);
+  if (fd < 0) return;
+  ::sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE);
+  ::close(fd);
+}
+
 void File::close() { handle_ = Handle(); }
 
 bool File::exists(std::string_view path) const {

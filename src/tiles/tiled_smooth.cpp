@@ -2142,6 +2142,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         const std::uint64_t begin = tiles_.offsets[b.tile], rows = tiles_.rows(b.tile);
         const Vec3* const result = b.tile_rows();
         target.write_rows(begin, rows, result->data(), h5::Transfer::Collective);
+        file().start_writeback();
         if (scratch_block) ring_scratch_->write(written_halos, b.tile, b.cur.data());
         b.mapped = {};  // the tile's lists, mapped: unmapped as soon as it is done
         b.accounted = b.bytes();
@@ -2230,6 +2231,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
           if (!scatter_on_compute) to_file_order(s);
           target.write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
         }
+        file().start_writeback();
         if (every_step) {
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
           for (; it != gather_rows_.end() && *it < begin + rows; ++it)
@@ -2285,6 +2287,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       const bool listed = streamed_list_order && !s.nb->order.empty();
       const std::vector<Vec3>& result = listed ? s.next : s.result();
       target.write_rows(begin, rows, result.data()->data(), h5::Transfer::Collective);
+      file().start_writeback();
       if (halos != nullptr) halos->write(written_halos, s.tile, s.next.data());
       if (every_step) {
         auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);

@@ -171,6 +171,10 @@ class File {
 
   /// Writes every cached change to the file (H5Fflush) and syncs it to disk.
   void flush();
+  /// Asks the kernel to start writing the file's dirty pages to disk, without waiting for
+  /// them (sync_file_range): a later flush() then waits only for what is still in flight.
+  /// What HDF5 keeps in its own caches is not touched. Nothing for a parallel file.
+  void start_writeback() const;
   /// Closes the file; later use is an error. Called by the destructor.
   void close();
 
