@@ -537,6 +537,10 @@ class Run {
   // 3, 4): no scattered copy into row order a step, only one when something else reads the
   // positions (the last step, or to_row_order after an automatic stop or on --resume).
   std::vector<Index> held_slot_;
+  // In a single process with the automatic lambda of every step: held_sample_[i], the element
+  // of held_ holding gather_rows_[i], so that a step's sample is gathered from the held buffer
+  // after the step, in parallel, instead of row by row as each tile is written.
+  std::vector<std::uint64_t> held_sample_;
   bool held_list_order_ = false;
   std::uint64_t held_bytes_ = 0;
   // Rows of positions and of neighbour lists read by the steps (their I/O volume).
@@ -1764,6 +1768,7 @@ void Run::release_positions() {
   free_vector(held_base_);
   free_vector(held_halo_);
   free_vector(held_slot_);
+  free_vector(held_sample_);
   held_list_order_ = false;
   held_bytes_ = 0;
 }
@@ -1788,8 +1793,10 @@ void Run::hold_positions() {
     halo_total += nb->halo_rows.size();
   }
   const std::uint64_t copies = compensated() ? 3 : 2;
+  const bool index_sample = ranks_->size() == 1 && auto_lambda_on() && params_.lambda_every_step;
   const std::uint64_t need = copies * total * sizeof(Vec3) + halo_total * sizeof(std::uint64_t) + bytes(base) +
-                             (my_end_row() - my_first_row()) * sizeof(Index);  // the inverse orders below
+                             (my_end_row() - my_first_row()) * sizeof(Index) +  // the inverse orders below
+                             (index_sample ? gather_rows_.size() * sizeof(std::uint64_t) : 0);
   able = able && persistent_bytes() + need + slots_room() <= options_.memory_budget;
   // Every rank holds, or none: the steps' commit records (list order or not) and the
   // collective writes of to_row_order are shared.
@@ -1823,6 +1830,15 @@ void Run::hold_positions() {
   for (auto& h : held_) h.resize(total);
   if (compensated()) held_updated_.resize(total);
   held_slot_ = std::move(inverse);
+  if (index_sample) {
+    held_sample_.resize(gather_rows_.size());
+    for (std::size_t i = 0; i < gather_rows_.size(); ++i) {
+      const std::uint64_t g = gather_rows_[i];
+      const std::size_t u = static_cast<std::size_t>(
+          std::upper_bound(tiles_.offsets.begin(), tiles_.offsets.end(), g) - tiles_.offsets.begin() - 1);
+      held_sample_[i] = held_base_[u] + held_slot_[g - my_first_row()];
+    }
+  }
   held_list_order_ = list_order;
   held_bytes_ = need;
   holding_ = true;
@@ -2072,6 +2088,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
     const h5::Dataset source = file().dataset(current_source());
     h5::Dataset target = file().dataset(positions_buffer(target_buffer()));
     const int h = block_length(step);
+    // The lambda sample's positions after this step (or block), gathered as its tiles are
+    // written: only where the next step measures the lambda (smooth()'s rule: every step of
+    // the anisotropic flow, the last of the isotropic one). A resumed run reads them anew.
+    const bool gather_sample = every_step && step + h < params_.steps && measures_lambda_before(params_, step + h);
     // Whether this step writes its positions in list order (held_list_order_): not the last
     // step, nor one before a rebuild, which write row order as they go instead of after.
     const bool list_order_step = !blocks() && holding_ && held_list_order_ && step + 1 < params_.steps &&
@@ -2123,7 +2143,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       // scratch: not the last block, nor one before a rebuild); nothing is moved into row
       // order and back.
       const bool listed_in = source_in_list_order();
-      block_list_order = scratch_block && local_order_ && !every_step && step + h < params_.steps &&
+      block_list_order = scratch_block && local_order_ && !gather_sample && step + h < params_.steps &&
                          !rebuild_due(step + h) && block_depth(block_length(step + h)) <= block_lists_depth_;
       stages.read = [&, ring_from, listed_in](std::size_t item, std::size_t slot) {
         read_block(work[item], block_depth(h), source, block_slots[slot], ring_from, listed_in);
@@ -2147,7 +2167,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         b.mapped = {};  // the tile's lists, mapped: unmapped as soon as it is done
         b.accounted = b.bytes();
         for (int j = 0; j < h; ++j) block_degenerate[static_cast<std::size_t>(j)] += b.degenerate[static_cast<std::size_t>(j)];
-        if (every_step) {  // one step a block (temporal blocks refuse a lambda of every step)
+        if (gather_sample) {  // one step a block (with a lambda of every step, a block is one step)
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
           for (; it != gather_rows_.end() && *it < begin + rows; ++it)
             gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = result[*it - begin];
@@ -2232,7 +2252,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
           target.write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
         }
         file().start_writeback();
-        if (every_step) {
+        if (gather_sample && held_sample_.empty()) {
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
           for (; it != gather_rows_.end() && *it < begin + rows; ++it)
             gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] =
@@ -2259,7 +2279,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       rows_read_ += s.local.size();
       s.next.resize(tiles_.rows(s.tile));
       // Sized here, not by the compute: this thread reads every slot's vectors (slots_bytes).
-      if (streamed_list_order && every_step && !s.nb->order.empty()) s.slot_of.resize(tiles_.rows(s.tile));
+      if (streamed_list_order && gather_sample && !s.nb->order.empty()) s.slot_of.resize(tiles_.rows(s.tile));
       largest_local_ = std::max<std::uint64_t>(largest_local_, s.local.size());
       account(slots_bytes());
     };
@@ -2273,7 +2293,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       if (order.empty()) return;
       if (!streamed_list_order) {
         s.nb->to_rows(s.next, s.local, rows);
-      } else if (every_step) {
+      } else if (gather_sample) {
         parallel_for(rows, [&](std::size_t b, std::size_t e) {
           for (std::size_t i = b; i < e; ++i) s.slot_of[order[i]] = static_cast<Index>(i);
         }, 8192);
@@ -2289,7 +2309,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       target.write_rows(begin, rows, result.data()->data(), h5::Transfer::Collective);
       file().start_writeback();
       if (halos != nullptr) halos->write(written_halos, s.tile, s.next.data());
-      if (every_step) {
+      if (gather_sample) {
         auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
         for (; it != gather_rows_.end() && *it < begin + rows; ++it)
           gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] =
@@ -2319,6 +2339,12 @@ bool Run::run_steps(OutOfCoreReport& report) {
     most_in_flight_ = std::max<std::uint64_t>(most_in_flight_, std::min(in_flight, work.size()));
     run_pipeline(work.size(), in_flight, stages);
     if (holding_) held_cur_ = 1 - held_cur_;
+    if (holding_ && gather_sample && !held_sample_.empty()) {
+      const std::vector<Vec3>& now = held_[static_cast<std::size_t>(held_cur_)];
+      parallel_for(held_sample_.size(), [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) gather_positions_[i] = now[held_sample_[i]];
+      }, 4096);
+    }
     if (halos != nullptr) {
       scratch_holds_[static_cast<std::size_t>(written_halos)] = positions_buffer(written_halos);
       report.halo_scratch = true;
@@ -2330,7 +2356,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // Collective writes: as many per rank as the rank with the most tiles.
     for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
     if (!blocks()) block_degenerate[0] = degenerate;
-    if (every_step && ranks_->size() > 1) {
+    if (gather_sample && ranks_->size() > 1) {
       // Each rank updated the sample's positions in its own tiles: exchange them.
       const auto first = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), my_first_row()) - gather_rows_.begin();
       const auto end = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), my_end_row()) - gather_rows_.begin();
