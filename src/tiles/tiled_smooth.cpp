@@ -306,7 +306,9 @@ class Run {
   void create(const fs::path& partial);
   void share();
   void release();
-  void commit_state();
+  void commit_state() { commit_state(state_); }
+  // Commits `record` (a copy of state_ as it was after a step whose writes came later).
+  void commit_state(const std::vector<std::int64_t>& record);
   void balance(bool with_halo);
   std::uint64_t my_tiles() const;
   std::uint64_t tiles_to_write() const;
@@ -559,13 +561,13 @@ void Run::account(std::uint64_t working) {
                      " MiB): import it again with a smaller budget or smaller tiles");
 }
 
-void Run::commit_state() {
+void Run::commit_state(const std::vector<std::int64_t>& record) {
   // Everything written before this point (by every rank) reaches the file first; then rank 0
   // overwrites the small state record in place (its storage was allocated when the file was
   // created, so the write changes no metadata).
   file().flush();
   if (shared_) ranks_->barrier();
-  if (ranks_->rank() == 0) file().dataset(layout::run_state).write_rows(0, state_rows_, state_.data());
+  if (ranks_->rank() == 0) file().dataset(layout::run_state).write_rows(0, state_rows_, record.data());
   file().flush();
 }
 
@@ -2030,7 +2032,36 @@ bool Run::run_steps(OutOfCoreReport& report) {
   // behind), before anything else touches the file, and before this function returns. The
   // step's progress is reported once it is committed, as before.
   bool commit_pending = false;
+  // A held step in list order in a single process goes further: it leaves its writes to the
+  // next step, whose pipeline reads nothing from the file, so this thread writes the tiles
+  // (from the held buffer: the next step only reads it) and commits them while the worker
+  // computes. The step's computes then follow the last one's without waiting for its last
+  // tile to be written. `lagged.record` is the state to commit once its tiles are written.
+  struct Lagged {
+    bool pending = false;
+    int buffer = 0;
+    std::string target;
+    std::vector<std::int64_t> record;
+    std::size_t written = 0;  // items of `work` written
+  } lagged;
+  // Writes the lagged step's items below `end` and, once they are all written, commits it.
+  const auto write_lagged = [&](std::size_t end) {
+    if (!lagged.pending) return;
+    const std::vector<Vec3>& from = held_[static_cast<std::size_t>(lagged.buffer)];
+    h5::Dataset target = file().dataset(lagged.target);
+    for (; lagged.written < std::min(end, work.size()); ++lagged.written) {
+      const std::size_t t = work[lagged.written];
+      target.write_rows(tiles_.offsets[t], tiles_.rows(t), from[held_base_[t]].data());
+      file().start_writeback();
+    }
+    if (lagged.written < work.size()) return;
+    commit_state(lagged.record);
+    lagged.pending = false;
+    progress("step", static_cast<std::uint64_t>(lagged.record[kCompletedSteps]),
+             static_cast<std::uint64_t>(params_.steps));
+  };
   const auto finish_commit = [&] {
+    write_lagged(work.size());
     if (!commit_pending) return;
     commit_state();
     commit_pending = false;
@@ -2086,7 +2117,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
       }
     }
     const h5::Dataset source = file().dataset(current_source());
-    h5::Dataset target = file().dataset(positions_buffer(target_buffer()));
+    const std::string target_name = positions_buffer(target_buffer());
+    h5::Dataset target = file().dataset(target_name);
     const int h = block_length(step);
     // The lambda sample's positions after this step (or block), gathered as its tiles are
     // written: only where the next step measures the lambda (smooth()'s rule: every step of
@@ -2096,6 +2128,9 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // step, nor one before a rebuild, which write row order as they go instead of after.
     const bool list_order_step = !blocks() && holding_ && held_list_order_ && step + 1 < params_.steps &&
                                  !rebuild_due(step + 1);
+    // Whether its writes go to the next step (Lagged): not where the run stops after it.
+    const bool lag_writes = list_order_step && ranks_->size() == 1 && !compensated() &&
+                            !(options_.stop_after_steps >= 0 && committed_here + h >= options_.stop_after_steps);
     // Streamed steps write list order too, on the same terms, while the halo scratch carries
     // the halos (the run file's rows of a halo are then not in row order) and every tile's
     // lists have an order; the slots then hold no copy of a tile in row order.
@@ -2245,13 +2280,15 @@ bool Run::run_steps(OutOfCoreReport& report) {
         const std::uint64_t begin = tiles_.offsets[s.tile], rows = tiles_.rows(s.tile);
         degenerate += s.stats.degenerate;
         const Vec3* const out = held_[static_cast<std::size_t>(1 - held_cur_)].data() + held_base_[s.tile];
-        if (list_order_step) {
+        if (lag_writes) {
+          // written by the next step (Lagged)
+        } else if (list_order_step) {
           target.write_rows(begin, rows, out->data(), h5::Transfer::Collective);
         } else {
           if (!scatter_on_compute) to_file_order(s);
           target.write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
         }
-        file().start_writeback();
+        if (!lag_writes) file().start_writeback();
         if (gather_sample && held_sample_.empty()) {
           auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
           for (; it != gather_rows_.end() && *it < begin + rows; ++it)
@@ -2319,7 +2356,16 @@ bool Run::run_steps(OutOfCoreReport& report) {
     };
     }
     }
-    if (commit_pending) {
+    if (lagged.pending) {
+      // The previous step's tiles, one as each of this step's after the first is read
+      // (nothing is read from the file: the positions are held), so that they overlap the
+      // computes from the first on; the last before this step's first write.
+      stages.read = [&, read = stages.read](std::size_t item, std::size_t slot) {
+        write_lagged(item);
+        read(item, slot);
+      };
+    }
+    if (commit_pending || lagged.pending) {
       // The pending commit: before the first write (the worker computes the tiles read
       // meanwhile).
       stages.write = [&, write = stages.write](std::size_t item, std::size_t slot) {
@@ -2374,7 +2420,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
     state_[kStepBuffer] = target_code(list_order_step || streamed_list_order || block_list_order);
     committed_here += h;
     const bool stopping = options_.stop_after_steps >= 0 && committed_here >= options_.stop_after_steps;
-    if (ranks_->size() == 1 && step < params_.steps && !stopping) {
+    if (lag_writes) {
+      write_lagged(work.size());  // done by this step's reads already
+      lagged = {true, held_cur_, target_name, state_, 0};
+    } else if (ranks_->size() == 1 && step < params_.steps && !stopping) {
       commit_pending = true;
     } else {
       commit_state();
