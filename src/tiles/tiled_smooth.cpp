@@ -336,6 +336,10 @@ class Run {
   void prepare_lambda_sample();
   double sample_lambda() const;
   void load_sample_positions(const h5::Dataset& positions);
+  // The lambda sample's positions among a written tile's rows begin .. begin + rows - 1:
+  // position_of(r) is the position of row begin + r.
+  template <class PositionOf>
+  void gather_sample_rows(std::uint64_t begin, std::uint64_t rows, PositionOf&& position_of);
   TileNeighbors tile_neighbors(std::size_t t) const;
   // Tile t's lists: cached, or read into `storage` (when given: its buffers are reused).
   std::shared_ptr<const TileNeighbors> neighbors_of(std::size_t t, std::shared_ptr<TileNeighbors> storage = {});
@@ -1166,6 +1170,13 @@ void Run::prepare_lambda_sample() {
     sample_counts_[s] = counts[i];
     for (std::size_t j = 0; j < counts[i]; ++j) sample_neighbors_[s * kk + j] = local_of(lists[i * kk + j]);
   }
+}
+
+template <class PositionOf>
+void Run::gather_sample_rows(std::uint64_t begin, std::uint64_t rows, PositionOf&& position_of) {
+  auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
+  for (; it != gather_rows_.end() && *it < begin + rows; ++it)
+    gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = position_of(*it - begin);
 }
 
 void Run::load_sample_positions(const h5::Dataset& positions) {
@@ -2202,11 +2213,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
         b.mapped = {};  // the tile's lists, mapped: unmapped as soon as it is done
         b.accounted = b.bytes();
         for (int j = 0; j < h; ++j) block_degenerate[static_cast<std::size_t>(j)] += b.degenerate[static_cast<std::size_t>(j)];
-        if (gather_sample) {  // one step a block (with a lambda of every step, a block is one step)
-          auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
-          for (; it != gather_rows_.end() && *it < begin + rows; ++it)
-            gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] = result[*it - begin];
-        }
+        // One step a block (with a lambda of every step, a block is one step).
+        if (gather_sample) gather_sample_rows(begin, rows, [&](std::uint64_t r) { return result[r]; });
       };
     } else {
     if (holding_) {
@@ -2289,12 +2297,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
           target.write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
         }
         if (!lag_writes) file().start_writeback();
-        if (gather_sample && held_sample_.empty()) {
-          auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
-          for (; it != gather_rows_.end() && *it < begin + rows; ++it)
-            gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] =
-                list_order_step ? out[held_slot_[*it - my_first_row()]] : s.next[*it - begin];
-        }
+        if (gather_sample && held_sample_.empty())
+          gather_sample_rows(begin, rows, [&](std::uint64_t r) {
+            return list_order_step ? out[held_slot_[begin + r - my_first_row()]] : s.next[r];
+          });
         s.nb.reset();
       };
     } else {
@@ -2346,12 +2352,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
       target.write_rows(begin, rows, result.data()->data(), h5::Transfer::Collective);
       file().start_writeback();
       if (halos != nullptr) halos->write(written_halos, s.tile, s.next.data());
-      if (gather_sample) {
-        auto it = std::lower_bound(gather_rows_.begin(), gather_rows_.end(), begin);
-        for (; it != gather_rows_.end() && *it < begin + rows; ++it)
-          gather_positions_[static_cast<std::size_t>(it - gather_rows_.begin())] =
-              result[listed ? s.slot_of[*it - begin] : *it - begin];
-      }
+      if (gather_sample)
+        gather_sample_rows(begin, rows, [&](std::uint64_t r) { return result[listed ? s.slot_of[r] : r]; });
       s.nb.reset();  // lists that are not cached are freed with their tile
     };
     }
