@@ -6,9 +6,10 @@
 #              import on 1-4 ranks; the Slurm scripts (shellcheck, a run against stand-ins)
 #   asan       the whole suite again under AddressSanitizer + UndefinedBehaviorSanitizer (gcc
 #              -O1), but for the repeat of the core tests against the OpenMP back end
-#   tsan       ThreadSanitizer over the parallel kernels and the tile pipeline: the core with
-#              the std::thread back end (TBB's and libgomp's own internals are not instrumented
-#              in Debian's builds); only their tests' files are built (pointfair_threading_tests)
+#   tsan       ThreadSanitizer over the parallel kernels, the tile pipeline and the out-of-core
+#              steps run through it: the core with the std::thread back end (TBB's and
+#              libgomp's own internals are not instrumented in Debian's builds); only their
+#              tests' files are built (pointfair_threading_tests, pointfair_tiled_threading_tests)
 #   fuzz       libFuzzer (clang): each reader's fuzzer for POINTFAIR_FUZZ_SECONDS (default 10)
 #              over the committed seeds, and every committed regression input once
 # POINTFAIR_HARDENING=0 skips asan, tsan and fuzz; POINTFAIR_MPI_STAGE=0 skips mpi.
@@ -70,9 +71,10 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
   cmake -S . -B "$tsan" -G Ninja -DCMAKE_BUILD_TYPE=Release \
     -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DCMAKE_C_FLAGS_RELEASE="-O1 -DNDEBUG" \
     -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_PARALLEL=Threads -DPOINTFAIR_SANITIZE=thread "${config[@]}" >/dev/null
-  cmake --build "$tsan" -j"$jobs" --target pointfair_threading_tests pointfair_pipeline_tests
+  cmake --build "$tsan" -j"$jobs" --target pointfair_threading_tests pointfair_pipeline_tests \
+    pointfair_tiled_threading_tests
   TSAN_OPTIONS=halt_on_error=1 ctest --test-dir "$tsan" --output-on-failure -j"$jobs" --timeout 600 \
-    -R '^(Threading\.(Parallel|Neighbo[a-z]*|SpatialOrder|EulerStep)|Pipeline)\.'
+    -R '^((Threading\.(Parallel|Neighbo[a-z]*|SpatialOrder|EulerStep)|Pipeline)\.|TiledThreading\.TiledSmoothTest\.(OneAndTwoThreads|Pipelined|StreamedHalos|PositionsHeld|StepsWrittenInListOrder|TemporalBlocks))'
   if [ "$full" = 1 ]; then
     cmake --build "$tsan" -j"$jobs" --target pointfair_core_tests
     TSAN_OPTIONS=halt_on_error=1 "$tsan/tests/pointfair_core_tests"
