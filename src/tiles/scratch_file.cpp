@@ -82,24 +82,28 @@ ScratchFile::Mapping ScratchFile::map(std::uint64_t offset, std::uint64_t bytes)
 }
 
 void ScratchFile::read(void* data, std::uint64_t bytes, std::uint64_t offset) const {
-  transfer(true, data, bytes, offset);
+  auto* p = static_cast<unsigned char*>(data);
+  transfer("read", bytes, offset, [&](std::uint64_t done, std::uint64_t left, off_t at) {
+    return ::pread(fd_, p + done, left, at);
+  });
 }
 
 void ScratchFile::write(const void* data, std::uint64_t bytes, std::uint64_t offset) {
-  transfer(false, const_cast<void*>(data), bytes, offset);
+  const auto* p = static_cast<const unsigned char*>(data);
+  transfer("write", bytes, offset, [&](std::uint64_t done, std::uint64_t left, off_t at) {
+    return ::pwrite(fd_, p + done, left, at);
+  });
 }
 
-void ScratchFile::transfer(bool reading, void* data, std::uint64_t bytes, std::uint64_t offset) const {
-  auto* p = static_cast<unsigned char*>(data);
-  while (bytes > 0) {
-    const ssize_t n = reading ? ::pread(fd_, p, bytes, static_cast<off_t>(offset))
-                              : ::pwrite(fd_, p, bytes, static_cast<off_t>(offset));
+void ScratchFile::transfer(const char* what, std::uint64_t bytes, std::uint64_t offset,
+                           const std::function<ssize_t(std::uint64_t, std::uint64_t, off_t)>& call) const {
+  std::uint64_t done = 0;
+  while (done < bytes) {
+    const ssize_t n = call(done, bytes - done, static_cast<off_t>(offset + done));
     if (n < 0 && errno == EINTR) continue;
-    if (n < 0) throw io::IoError(name_ + ": " + (reading ? "read" : "write") + " failed: " + std::strerror(errno));
-    if (n == 0) throw io::IoError(name_ + ": " + (reading ? "read" : "write") + " ended early");
-    p += n;
-    bytes -= static_cast<std::uint64_t>(n);
-    offset += static_cast<std::uint64_t>(n);
+    if (n < 0) throw io::IoError(name_ + ": " + what + " failed: " + std::strerror(errno));
+    if (n == 0) throw io::IoError(name_ + ": " + what + " ended early");
+    done += static_cast<std::uint64_t>(n);
   }
 }
 

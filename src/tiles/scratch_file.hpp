@@ -2,8 +2,11 @@
 // A scratch file of a run: unlinked as soon as it is open, so that it leaves nothing behind
 // when the run ends or is killed, read and written at offsets (no HDF5). What a run keeps in
 // one is never needed to resume it. Internal: not installed.
+#include <sys/types.h>
+
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 namespace pointfair::tiles {
@@ -49,7 +52,10 @@ class ScratchFile {
   Mapping map(std::uint64_t offset, std::uint64_t bytes) const;
 
  private:
-  void transfer(bool reading, void* data, std::uint64_t bytes, std::uint64_t offset) const;
+  // Calls `call(done, left, at)` (a pread or pwrite of the `left` bytes after the first `done`,
+  // at file offset `at`) until `bytes` are moved; `what` names the transfer in errors.
+  void transfer(const char* what, std::uint64_t bytes, std::uint64_t offset,
+                const std::function<ssize_t(std::uint64_t, std::uint64_t, off_t)>& call) const;
   std::string name_;
   int fd_ = -1;
 };
