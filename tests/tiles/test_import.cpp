@@ -20,6 +20,8 @@ using namespace pointfair::tiles;
 
 namespace {
 
+using test::few_steps;
+
 class ImportTest : public test::TempDirTest {
  protected:
   // The cloud as a point file; returns the table read back (the reference's input).
@@ -75,12 +77,6 @@ void expect_well_formed(const std::filesystem::path& file, const io::PointTable&
     EXPECT_EQ(back.attributes[a].type, input.attributes[a].type);
     EXPECT_EQ(back.attributes[a].values, input.attributes[a].values);
   }
-}
-
-SmoothParams few_steps(int steps = 3) {
-  SmoothParams p;
-  p.steps = steps;
-  return p;
 }
 
 TEST_F(ImportTest, StreamedContainerRunsBitIdenticalToInCore) {

@@ -19,6 +19,8 @@ using namespace pointfair::tiles;
 
 namespace {
 
+using test::few_steps;
+
 QuadricProjectionParams finish_params(int passes, int degree) {
   QuadricProjectionParams q;
   q.k = 30;
@@ -26,24 +28,6 @@ QuadricProjectionParams finish_params(int passes, int degree) {
   q.degree = degree;
   q.curvature_reach = 0.0;  // every fit over all k (the test of the tiling sets it)
   return q;
-}
-
-// The in-core command: the flow, the finish on its result, the attributes of the finished
-// positions over the flow's last lists with its last lambda.
-test::InCore finished_in_core(const io::PointTable& table, const SmoothParams& params,
-                              const QuadricProjectionParams& q) {
-  test::InCore r;
-  r.positions = table.positions;
-  r.report = smooth(r.positions, params);
-  finish_with_quadrics(r.positions, q);
-  r.attributes = compute_attributes(r.positions, r.report.neighborhoods, params.flow, r.report.lambda);
-  return r;
-}
-
-SmoothParams few_steps(int steps) {
-  SmoothParams p;
-  p.steps = steps;
-  return p;
 }
 
 class TiledFinishTest : public test::TempDirTest {
@@ -78,7 +62,7 @@ TEST_F(TiledFinishTest, BitIdenticalToInCoreForAnyTilingAndThreads) {
       q.curvature_reach = 0.7;
       q.min_k = 12;
     }
-    const test::InCore ref = finished_in_core(cloud, params, q);
+    const test::InCore ref = test::run_in_core(cloud, params, &q);
     // The finish moved the points: a run without it would not pass.
     ASSERT_NE(ref.positions, test::run_in_core(cloud, params).positions);
     for (const Case& c : cases) {
@@ -124,7 +108,7 @@ TEST_F(TiledFinishTest, AfterRebuildsBlocksAndCompensationLikeInCore) {
     params.shrink_compensation = c.shrink_compensation;
     params.lambda_every_step = c.temporal_block == 1;
     const QuadricProjectionParams q = finish_params(1, 3);
-    const test::InCore ref = finished_in_core(cloud, params, q);
+    const test::InCore ref = test::run_in_core(cloud, params, &q);
     OutOfCoreOptions options = with_finish(q);
     options.temporal_block = c.temporal_block;
     EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
@@ -141,7 +125,7 @@ TEST_F(TiledFinishTest, EmptyTilesAndTinyClouds) {
     for (const int steps : {0, 2}) {
       const SmoothParams params = few_steps(steps);
       const QuadricProjectionParams q = finish_params(2, 2);
-      const test::InCore ref = finished_in_core(cloud, params, q);
+      const test::InCore ref = test::run_in_core(cloud, params, &q);
       write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 3}));
       EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, with_finish(q)).finished);
       test::expect_identical(path("run.h5"), ref);
@@ -156,7 +140,7 @@ TEST_F(TiledFinishTest, StoppedAndResumedToTheSameBits) {
   const io::PointTable cloud = test::noisy_cube(1500, 43);
   const SmoothParams params = few_steps(3);
   const QuadricProjectionParams q = finish_params(2, 2);
-  const test::InCore ref = finished_in_core(cloud, params, q);
+  const test::InCore ref = test::run_in_core(cloud, params, &q);
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 200}, 256));
   set_thread_count(2);
   for (const int stop_steps : {1, -1}) {
@@ -196,7 +180,7 @@ TEST_F(TiledFinishTest, InterruptedInsideAPassResumesToTheSameBits) {
   const io::PointTable cloud = test::noisy_cube(1500, 47);
   const SmoothParams params = few_steps(2);
   const QuadricProjectionParams q = finish_params(2, 2);
-  const test::InCore ref = finished_in_core(cloud, params, q);
+  const test::InCore ref = test::run_in_core(cloud, params, &q);
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 200}, 256));
   const TileTable tiles = read_tile_table(h5::File::open(path("in.h5"), false));
   std::size_t filled = 0;
@@ -229,7 +213,7 @@ TEST_F(TiledFinishTest, AutomaticStopThenFinishResumesWithTheStopsLambda) {
   SmoothParams params;  // defaults: stop when lambda falls to stop_lambda_ratio of the input's
   params.steps = 60;
   const QuadricProjectionParams q = finish_params(2, 2);
-  const test::InCore ref = finished_in_core(cloud, params, q);
+  const test::InCore ref = test::run_in_core(cloud, params, &q);
   ASSERT_TRUE(ref.report.stopped_early);
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 500}));
   OutOfCoreOptions stop = with_finish(q);
@@ -271,7 +255,7 @@ TEST_F(TiledFinishTest, ResumeWithOtherFinishParametersIsRefused) {
   // The run itself still resumes with its own.
   resume.quadric_finish = q;
   EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume).finished);
-  test::expect_identical(path("run.h5"), finished_in_core(cloud, params, q));
+  test::expect_identical(path("run.h5"), test::run_in_core(cloud, params, &q));
 }
 
 }  // namespace

@@ -20,17 +20,12 @@ using namespace pointfair::tiles;
 namespace {
 
 using test::expect_identical;
+using test::few_steps;
 using test::InCore;
 using test::run_in_core;
 
 // A plateau that stops the compensated flow on the noisy cube well before 60 steps.
 constexpr double kPlateau = 0.03;
-
-SmoothParams few_steps(int steps = 3) {
-  SmoothParams p;
-  p.steps = steps;
-  return p;
-}
 
 class TiledSmoothTest : public test::TempDirTest {
  protected:

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "pointfair/io/point_table.hpp"
+#include "pointfair/quadric_projection.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "pointfair/tiles/container.hpp"
@@ -51,10 +52,21 @@ struct InCore {
   SmoothReport report;
 };
 
-inline InCore run_in_core(const io::PointTable& table, const SmoothParams& params) {
+/// The flow's parameters with `steps` steps, the rest their defaults.
+inline SmoothParams few_steps(int steps = 3) {
+  SmoothParams p;
+  p.steps = steps;
+  return p;
+}
+
+/// With `finish`, as the command runs it: the flow, the quadric finish on its result, and the
+/// attributes of the finished positions over the flow's last lists with its last lambda.
+inline InCore run_in_core(const io::PointTable& table, const SmoothParams& params,
+                          const QuadricProjectionParams* finish = nullptr) {
   InCore r;
   r.positions = table.positions;
   r.report = smooth(r.positions, params);
+  if (finish != nullptr) finish_with_quadrics(r.positions, *finish);
   r.attributes = compute_attributes(r.positions, r.report.neighborhoods, params.flow, r.report.lambda);
   return r;
 }
