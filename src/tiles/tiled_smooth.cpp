@@ -399,9 +399,14 @@ class Run {
   bool on_every_rank(bool v) const { return !on_any_rank(!v); }
   bool temporal_blocks() const { return options_.temporal_block > 1; }
   // Steps load a tile with the rings of its lists' closure (BlockSlot) rather than one halo:
-  // temporal blocks, and compensated steps unless the positions are held in memory (then a
-  // compensated step is two passes over the held tiles, each with its one halo).
-  bool blocks() const { return temporal_blocks() || (compensated() && !holding_); }
+  // temporal blocks, compensated steps unless the positions are held in memory (then a
+  // compensated step is two passes over the held tiles, each with its one halo), and plain
+  // streamed steps as blocks of one step (choose_step_blocks).
+  bool blocks() const { return temporal_blocks() || (compensated() && !holding_) || step_blocks_; }
+  // Whether plain steps that stream their positions and lists go through blocks of one step
+  // (OutOfCoreOptions::step_blocks): once the lists and positions are known not to be kept in
+  // memory, and only where the block scratch is made (prepare_block_lists).
+  void choose_step_blocks();
   // Levels of a block of h steps (BlockSlot): h, or 2 h when compensated.
   int block_depth(int h) const { return compensated() ? 2 * h : h; }
   std::string current_source() const {
@@ -513,6 +518,7 @@ class Run {
   bool blocks_refused_ = false;
   bool caching_ = true;
   bool ran_blocks_ = false;  // a step ran as blocks, whose lists the cache does not hold
+  bool step_blocks_ = false;  // plain steps as blocks of one step (choose_step_blocks)
   // Whether the run file has kLocalOrder (tile lists in Morton order, see TileNeighbors).
   bool local_order_ = false;
   std::uint64_t cache_bytes_ = 0;
@@ -1650,6 +1656,20 @@ void Run::prepare_block_lists(int d) {
   blocks_refused_ = false;
 }
 
+void Run::choose_step_blocks() {
+  // Only where they replace a step that would read its tile's lists from the run file: the
+  // lists are not cached, nor the positions held. A block of one step reads its lists from the
+  // block scratch (one mapping a tile) and its ring from the ring scratch, and keeps the tile
+  // in its lists' order from step to step: the same I/O as the halo scratch's steps, with
+  // the lists' conversion to local indices done once.
+  step_blocks_ = false;
+  if (!options_.step_blocks || !options_.halo_scratch || temporal_blocks() || compensated() || holding_ ||
+      caching_ || ranks_->size() > 1)
+    return;
+  prepare_block_lists(1);
+  step_blocks_ = block_lists_ != nullptr;
+}
+
 void Run::release_scratch() {
   halo_scratch_.reset();
   scratch_holds_ = {};
@@ -2015,6 +2035,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
   {
     const auto th = Clock::now();
     hold_positions();
+    choose_step_blocks();
     report.seconds_neighbors += seconds_since(th);
   }
   // Positions held in list order, a slot holds no positions: then every tile of a step is in
@@ -2093,9 +2114,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
       rebuild_neighbors(step);
       prepare_lists(report);
       hold_positions();
+      choose_step_blocks();
       if (blocks() && block_slots.empty()) {
-        // Compensated steps whose positions no longer fit once the lists are rebuilt: blocks
-        // from here, with slots sized for them.
+        // Compensated steps whose positions no longer fit once the lists are rebuilt, or plain
+        // steps as blocks: blocks from here, with slots sized for them.
         slot_count = pipeline_slots(bytes(identity));
         block_slots.resize(slot_count);
       }
@@ -2176,6 +2198,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       }
       scratch_block = ring_scratch_ && block_depth(h) <= block_lists_depth_;
       ran_blocks_ = true;
+      if (step_blocks_) report.step_blocks = true;
       int ring_from = ring_scratch_ ? buffer_holding_source(ring_holds_) : -1;
       if (scratch_block && ring_from < 0) {
         // The first block of a call or after a rebuild: the rings' positions into the buffer

@@ -197,12 +197,15 @@ TEST_F(TiledSmoothTest, PipelinedStepsGiveTheSameBits) {
       OutOfCoreOptions options;
       options.tiles_in_flight = in_flight;
       options.memory_budget = budget;
+      // Streamed: single steps with 2 in flight, blocks of one step with 5.
+      options.step_blocks = in_flight == 5;
       const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, options);
       EXPECT_GT(r.tiles, 100u);
       // Positions held: the steps but the last write list order, with every tile in flight.
       EXPECT_EQ(r.tiles_in_flight, r.positions_held ? static_cast<int>(r.tiles) : in_flight);
       EXPECT_EQ(r.neighbors_cached, budget > (1u << 20)) << "not the case this test is for";
       EXPECT_EQ(r.positions_held, budget > (1u << 20)) << "not the case this test is for";
+      EXPECT_EQ(r.step_blocks, !r.positions_held && in_flight == 5) << "not the case this test is for";
       EXPECT_LE(r.peak_accounted_bytes, budget);
       expect_identical(path("run.h5"), ref);
       std::filesystem::remove(path("run.h5"));
@@ -211,34 +214,48 @@ TEST_F(TiledSmoothTest, PipelinedStepsGiveTheSameBits) {
 }
 
 // Streamed steps read each tile's halo from the halo scratch the step before wrote (not on
-// the first step of a call, nor after a rebuild): the same bits with it and without, through
-// rebuilds, a stop and a resume; the scratch leaves no file behind.
+// the first step of a call, nor after a rebuild), or go through blocks of one step (their
+// lists and rings from the block scratch): the same bits either way and with halos from the
+// run file, through rebuilds, a stop and a resume; the scratch leaves no file behind. With
+// a lambda of every step (the sample gathered between steps) and rebuilds, and with a fixed
+// lambda (the steps but the last then write each tile in its lists' order).
 TEST_F(TiledSmoothTest, StreamedHalosFromTheScratchGiveTheSameBits) {
   const io::PointTable cloud = test::noisy_cube(3000, 23);
-  SmoothParams params = few_steps(5);
-  params.shrink_compensation = 0.0;
-  params.rebuild_interval = 3;
-  const InCore ref = run_in_core(cloud, params);
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 40}, 64));
-  for (const bool scratch : {true, false}) {
-    SCOPED_TRACE(scratch ? "halo scratch" : "halos from the run file");
-    OutOfCoreOptions options;
-    options.memory_budget = std::uint64_t{600} << 10;
-    options.halo_scratch = scratch;
-    const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, options);
-    EXPECT_FALSE(r.positions_held) << "not the case this test is for";
-    EXPECT_EQ(r.halo_scratch, scratch);
-    EXPECT_EQ(r.rebuilds, 1);
-    expect_identical(path("run.h5"), ref);
-    std::filesystem::remove(path("run.h5"));
-    // Stopped after two steps, resumed: the resumed call's first step reads the run file.
-    options.stop_after_steps = 2;
-    EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
-    options.stop_after_steps = -1;
-    options.resume = true;
-    EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
-    expect_identical(path("run.h5"), ref);
-    std::filesystem::remove(path("run.h5"));
+  for (const bool fixed : {false, true}) {
+    SCOPED_TRACE(fixed ? "fixed lambda" : "lambda of every step, rebuilds");
+    SmoothParams params = few_steps(5);
+    params.shrink_compensation = 0.0;
+    params.rebuild_interval = fixed ? 0 : 3;
+    params.flow.lambda = fixed ? 12.0 : 0.0;
+    const InCore ref = run_in_core(cloud, params);
+    for (const auto& [scratch, step_blocks] :
+         {std::pair{true, true}, std::pair{true, false}, std::pair{false, true}}) {
+      SCOPED_TRACE(!scratch ? "halos from the run file" : step_blocks ? "blocks of one step" : "halo scratch");
+      OutOfCoreOptions options;
+      options.memory_budget = std::uint64_t{600} << 10;
+      options.halo_scratch = scratch;
+      options.step_blocks = step_blocks;
+      const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, options);
+      EXPECT_FALSE(r.positions_held) << "not the case this test is for";
+      EXPECT_FALSE(r.neighbors_cached) << "not the case this test is for";
+      EXPECT_EQ(r.halo_scratch, scratch);
+      EXPECT_EQ(r.step_blocks, scratch && step_blocks);
+      EXPECT_EQ(r.rebuilds, fixed ? 0 : 1);
+      expect_identical(path("run.h5"), ref);
+      std::filesystem::remove(path("run.h5"));
+      // Stopped after two steps, resumed the other way (blocks of one step or halo scratch,
+      // whose tiles are each in their own order in the run file): the resumed call's first
+      // step reads the run file.
+      options.stop_after_steps = 2;
+      EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
+      options.stop_after_steps = -1;
+      options.resume = true;
+      options.step_blocks = !step_blocks;
+      EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
+      expect_identical(path("run.h5"), ref);
+      std::filesystem::remove(path("run.h5"));
+    }
   }
   std::vector<std::string> left;
   for (const auto& e : std::filesystem::directory_iterator(dir_)) left.push_back(e.path().filename().string());

@@ -92,6 +92,11 @@ int run_smooth_out_of_core(const Args& args) {
               "Read each streamed step's halos from the run file rather than from a scratch file "
               "beside OUT (unlinked; 48 bytes of disk per halo point): slower, same result.",
               [&] { ooc.halo_scratch = false; });
+  parser.flag("no-step-blocks",
+              "Stream single steps (--temporal-block 1, no --shrink-compensation) each with its "
+              "tile's halo, rather than as blocks of one step whose lists come from a scratch "
+              "file made once: slower, same result.",
+              [&] { ooc.step_blocks = false; });
   parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters).",
               [&] { ooc.resume = true; });
   add_output_options(parser, output, true);
@@ -208,6 +213,7 @@ int run_smooth_out_of_core(const Args& args) {
     j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));
     j.add("neighbors_cached", report.neighbors_cached).add("positions_held", report.positions_held);
     j.add("halo_scratch", report.halo_scratch);
+    j.add("step_blocks", report.step_blocks);
     j.add("tiles_in_flight", report.tiles_in_flight);
     j.add("rebuilds", report.rebuilds).add("temporal_block", ooc.temporal_block);
     // Bytes the steps read: positions (24 per row) and neighbour lists (4 k + 2 per row).

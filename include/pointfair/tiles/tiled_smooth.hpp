@@ -69,6 +69,13 @@ struct OutOfCoreOptions {
   /// left behind. Off, or where the scratch cannot be made or does not fit in the budget: the
   /// halos are read from the run file. Results do not depend on it.
   bool halo_scratch = true;
+  /// Streamed single steps without shrinkage compensation (single process, halo_scratch on,
+  /// lists not cached, positions not held) go through temporal blocks of one step: each tile's
+  /// lists in local indices from a scratch file made once (mapped, one read a tile) and its
+  /// halo from the blocks' ring scratch, the tile kept in its lists' order from step to step.
+  /// Off, or where that scratch cannot be made or does not fit in the budget: the halo scratch
+  /// above. Results do not depend on it.
+  bool step_blocks = true;
   /// Build the first neighbourhoods from this cloud instead of the input (SmoothOptions::
   /// neighbor_reference): a point file or container with the same points in the input's
   /// original order. Its positions are copied into the run in row order, in passes over
@@ -115,6 +122,8 @@ struct OutOfCoreReport {
   bool positions_held = false;
   /// Streamed steps read their halos from the scratch file (OutOfCoreOptions::halo_scratch).
   bool halo_scratch = false;
+  /// Plain streamed steps ran as blocks of one step (OutOfCoreOptions::step_blocks).
+  bool step_blocks = false;
   /// The largest working set the run accounted for (bytes), and the largest tile + halo.
   std::uint64_t peak_accounted_bytes = 0;
   std::uint64_t largest_tile_with_halo = 0;
