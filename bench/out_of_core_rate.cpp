@@ -66,6 +66,7 @@ OutOfCoreRate OutOfCoreBench::run(const SmoothParams& params, const std::vector<
   rate.neighbors_cached = report.neighbors_cached;
   rate.positions_held = report.positions_held;
   rate.halo_scratch = report.halo_scratch;
+  rate.step_blocks = report.step_blocks;
   rate.tiles_in_flight = report.tiles_in_flight;
   if (!expected.empty()) {
     const io::PointTable result = tiles::read_container(output, {.original_order = true, .result_positions = true});
@@ -120,6 +121,7 @@ OutOfCoreSection measure_out_of_core(const std::vector<Vec3>& cloud, int k, int 
         section.neighbors_cached = out.neighbors_cached;
         section.positions_held = out.positions_held;
         section.halo_scratch = out.halo_scratch;
+        section.step_blocks = out.step_blocks;
         section.tiles_in_flight = out.tiles_in_flight;
         in_rates.push_back(in_rate);
         out_rates.push_back(out.point_steps_per_second);
@@ -135,9 +137,10 @@ OutOfCoreSection measure_out_of_core(const std::vector<Vec3>& cloud, int k, int 
 
 void print_out_of_core(const OutOfCoreSection& s) {
   std::printf("  out of core (container of %zu tiles of at most %llu points, --memory-budget %lluM, "
-              "temporal block %d%s; lists %s, positions %s%s, %d tiles in flight), paired with in core:\n",
+              "temporal block %d%s%s; lists %s, positions %s%s, %d tiles in flight), paired with in core:\n",
               s.tiles, static_cast<unsigned long long>(s.tile_points),
               static_cast<unsigned long long>(s.options.memory_budget >> 20), s.options.temporal_block,
+              s.step_blocks ? " (blocks of one step: lists and rings from the block scratch)" : "",
               s.lambda_once ? ", lambda measured once in both runs" : "",
               s.neighbors_cached ? "kept in memory" : "re-read every step",
               s.positions_held ? "kept in memory (every step still written and committed)" : "re-read every step",
@@ -160,6 +163,7 @@ std::string out_of_core_json(const OutOfCoreSection& s, const std::string& name)
                      ", \"neighbors_cached\": " + (s.neighbors_cached ? "true" : "false") +
                      ", \"positions_held\": " + (s.positions_held ? "true" : "false") +
                      ", \"halo_scratch\": " + (s.halo_scratch ? "true" : "false") +
+                     ", \"step_blocks\": " + (s.step_blocks ? "true" : "false") +
                      ", \"tiles_in_flight\": " + std::to_string(s.tiles_in_flight) + ", \"steps_per_flow\": [";
   for (std::size_t i = 0; i < s.rows.size(); ++i) {
     const OutOfCoreRow& r = s.rows[i];

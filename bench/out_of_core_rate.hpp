@@ -39,6 +39,8 @@ struct OutOfCoreRate {
   bool positions_held = false;
   /// Whether streamed steps read their halos from the halo scratch (OutOfCoreReport::halo_scratch).
   bool halo_scratch = false;
+  /// Whether plain streamed steps ran as blocks of one step (OutOfCoreReport::step_blocks).
+  bool step_blocks = false;
   /// The run's final positions equal smooth()'s on the same cloud to the bit (when checked).
   bool checked = false;
   bool identical = false;
@@ -63,6 +65,7 @@ struct OutOfCoreSection {
   bool neighbors_cached = false;
   bool positions_held = false;
   bool halo_scratch = false;
+  bool step_blocks = false;
   int tiles_in_flight = 0;
   /// The automatic lambda measured once rather than every step, in both runs of every pair:
   /// temporal blocks (temporal_block > 1) need a lambda that stays fixed between steps.
