@@ -95,6 +95,26 @@ TEST_F(KillResumeTest, StepsWrittenInListOrderKilledAndResumedAreBitIdentical) {
                    "--threads", "2", "--quiet"});
 }
 
+// Streamed plain steps (a budget that keeps neither the lists nor the positions) run as
+// blocks of one step, which write each tile in the order of its lists: killed in them, the
+// same bits.
+TEST_F(KillResumeTest, StreamedStepsAsBlocksKilledAndResumedAreBitIdentical) {
+  write_container(path("in.h5"), test::noisy_cube(20000, 25), test::tiled({.max_tile_points = 2500}));
+  {  // the case this test is for
+    SmoothParams params;
+    params.steps = 2;
+    params.shrink_compensation = 0.0;
+    params.lambda_every_step = false;
+    OutOfCoreOptions options;
+    options.memory_budget = std::uint64_t{3} << 20;
+    const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("probe.h5"), params, options);
+    ASSERT_TRUE(r.step_blocks && !r.positions_held && !r.neighbors_cached);
+  }
+  kill_and_resume({"--steps", "20", "--shrink-compensation", "0", "--stop-lambda-ratio", "0", "--stop-plateau", "0",
+                   "--lambda-schedule", "once", "--no-quadric-finish", "--memory-budget", "3M", "--threads", "2",
+                   "--quiet"});
+}
+
 // The quadric finish after the steps, two passes committed like steps: killed in the steps,
 // in either pass or in the attributes, the same bits.
 TEST_F(KillResumeTest, QuadricFinishKilledAndResumedIsBitIdentical) {
