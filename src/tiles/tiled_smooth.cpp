@@ -565,10 +565,11 @@ void Run::account(std::uint64_t working) {
   const std::uint64_t total = persistent_bytes() + working;
   peak_ = std::max(peak_, total);
   if (total > options_.memory_budget)
-    throw ParamError("the memory budget of " + std::to_string(options_.memory_budget >> 20) +
-                     " MiB is too small for the tiles of " + input_path_.string() + " (a tile needs " +
-                     std::to_string((total >> 20) + 1) +
-                     " MiB): import it again with a smaller budget or smaller tiles");
+    throw BudgetError("the memory budget of " + size_text(options_.memory_budget, false) +
+                          " is too small for the tiles of " + input_path_.string() + " (the run needs " +
+                          size_text(total, true) +
+                          "): give a larger budget, or import the input again with a smaller budget (smaller tiles)",
+                      options_.memory_budget, total);
 }
 
 void Run::commit_state(const std::vector<std::int64_t>& record) {
@@ -2779,6 +2780,12 @@ OutOfCoreReport Run::run() {
 }
 
 }  // namespace
+
+std::string size_text(std::uint64_t bytes, bool up) {
+  const std::uint64_t unit = bytes < (std::uint64_t{1} << 20) ? 10 : 20;
+  const std::uint64_t n = (bytes >> unit) + (up && (bytes & ((std::uint64_t{1} << unit) - 1)) != 0 ? 1 : 0);
+  return std::to_string(n) + (unit == 10 ? " KiB" : " MiB");
+}
 
 fs::path partial_name(const fs::path& output) {
   fs::path p = output;

@@ -187,6 +187,47 @@ TEST_F(CliTest, OutOfCoreSmoothTakesCompensationAndPlateauStop) {
   EXPECT_NE(io::read_points(dir_ / "c.ply").positions, b.positions);
 }
 
+// Too small a --memory-budget for the run: exit 2 and a message that names the input, the
+// budget and what the run needs. A point file leaves nothing behind; a container run keeps
+// its partial file and says how to continue it, which a resume with a larger budget does.
+TEST_F(CliTest, TooSmallABudgetSaysWhatHelps) {
+  const fs::path in = write_cloud("in.ply", 20000);
+  const RunResult file = run("smooth " + in.string() + " " + (dir_ / "out.ply").string() +
+                             " --memory-budget 1M --steps 2 --quiet");
+  EXPECT_EQ(file.exit_code, 2) << file.err;
+  EXPECT_NE(file.err.find("the memory budget of 1 MiB is too small for " + in.string() + " (the run needs "),
+            std::string::npos)
+      << file.err;
+  EXPECT_NE(file.err.find("give a larger --memory-budget"), std::string::npos) << file.err;
+  std::vector<std::string> left;
+  for (const auto& e : fs::directory_iterator(dir_)) left.push_back(e.path().filename().string());
+  EXPECT_EQ(left, std::vector<std::string>{"in.ply"});
+
+  // Budgets doubled from 1 MiB: too small before the run file is made (nothing kept), then
+  // too small for a later stage (the partial file kept, and the message says so).
+  const fs::path container = dir_ / "in.h5", out = dir_ / "run.h5", partial = dir_ / "run.h5.partial";
+  ASSERT_EQ(run("import " + in.string() + " " + container.string() + " --quiet").exit_code, 0);
+  bool kept = false;
+  for (int mib = 1; mib <= 64 && !kept; mib *= 2) {
+    SCOPED_TRACE(testing::Message() << mib << " MiB");
+    const RunResult r = run("smooth " + container.string() + " " + out.string() + " --memory-budget " +
+                            std::to_string(mib) + "M --steps 2 --quiet");
+    ASSERT_EQ(r.exit_code, 2) << "no budget kept a partial run before one was large enough: " << r.err;
+    EXPECT_NE(r.err.find("the memory budget of " + std::to_string(mib) + " MiB is too small for the tiles of"),
+              std::string::npos)
+        << r.err;
+    kept = fs::exists(partial);
+    EXPECT_EQ(r.err.find("run.h5.partial: add --resume with a larger --memory-budget") != std::string::npos, kept)
+        << r.err;
+  }
+  ASSERT_TRUE(kept);
+  EXPECT_EQ(run("smooth " + container.string() + " " + out.string() + " --memory-budget 256M --steps 2 --resume --quiet")
+                .exit_code,
+            0);
+  EXPECT_TRUE(fs::exists(out));
+  EXPECT_FALSE(fs::exists(partial));
+}
+
 // --quadric-finish: the pass after the flow (on by default), reported in the JSON; it moves
 // the points; bad values are refused with a message naming the problem; out of core it gives
 // the same points.

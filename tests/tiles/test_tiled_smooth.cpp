@@ -715,7 +715,14 @@ TEST_F(TiledSmoothTest, MemoryAccountingStaysInTheBudget) {
   const io::PointTable a = read_container(path("a.h5")), b = read_container(path("b.h5"));
   EXPECT_EQ(a.positions, b.positions);
   options.memory_budget = 64u << 10;  // smaller than one tile
-  EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("c.h5"), few_steps(1), options), ParamError);
+  try {
+    smooth_out_of_core(path("in.h5"), path("c.h5"), few_steps(1), options);
+    ADD_FAILURE() << "a budget smaller than a tile was taken";
+  } catch (const BudgetError& e) {
+    EXPECT_EQ(e.budget, options.memory_budget);
+    EXPECT_GT(e.needed, e.budget);
+    EXPECT_NE(std::string(e.what()).find("the memory budget of 64 KiB is too small"), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(TiledSmoothTest, RefusesWhatItCannotDoExactly) {

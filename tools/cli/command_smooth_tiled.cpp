@@ -158,14 +158,24 @@ int run_smooth_out_of_core(const Args& args) {
   tiles::OutOfCoreReport report;
   try {
     report = tiles::smooth_out_of_core(run_input, run_output, params, ooc);
-  } catch (const ParamError&) {
+  } catch (const ParamError& e) {
     // A point-file run that cannot start (e.g. too small a budget) leaves nothing behind;
-    // a container run keeps its partial file for --resume.
+    // a container run keeps its partial file for --resume, and says so when the budget was
+    // too small.
+    const auto* budget = dynamic_cast<const tiles::BudgetError*>(&e);
     if (!imported.empty()) {
       remove_quietly(imported);
       remove_quietly(tiles::partial_name(run_output));
+      if (budget == nullptr) throw;
+      // The tiles were sized for the budget: only a larger one helps.
+      throw ParamError("the memory budget of " + tiles::size_text(budget->budget) + " is too small for " + input +
+                       " (the run needs " + tiles::size_text(budget->needed, true) + "): give a larger --memory-budget");
     }
-    throw;
+    std::error_code ec;
+    if (budget == nullptr || !fs::exists(tiles::partial_name(run_output), ec)) throw;
+    throw ParamError(std::string(e.what()) + " (the run so far is kept in " +
+                     tiles::partial_name(run_output).filename().string() +
+                     ": add --resume with a larger --memory-budget to continue it, or remove it)");
   }
   progress.finish();
 

@@ -35,12 +35,27 @@
 #include <optional>
 #include <string>
 
+#include "pointfair/params_error.hpp"
 #include "pointfair/quadric_projection.hpp"
 #include "pointfair/smooth.hpp"
 
 namespace pointfair::tiles {
 
 class Ranks;
+
+/// The memory budget is too small for the run's tiles (a ParamError). Where the run file was
+/// made by then, "<output>.partial" keeps what is committed, and a resume with a larger budget
+/// continues it.
+class BudgetError : public ParamError {
+ public:
+  BudgetError(const std::string& message, std::uint64_t budget_bytes, std::uint64_t needed_bytes)
+      : ParamError(message), budget(budget_bytes), needed(needed_bytes) {}
+  std::uint64_t budget = 0;  // bytes
+  std::uint64_t needed = 0;  // bytes the run would have held
+};
+
+/// Bytes as whole MiB, or as KiB below one MiB ("300 KiB", "61 MiB"); rounded up with `up`.
+std::string size_text(std::uint64_t bytes, bool up = false);
 
 struct OutOfCoreOptions {
   /// Bytes of working memory the run may use for its buffers (tile, halo, neighbour lists,
