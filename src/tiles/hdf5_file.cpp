@@ -289,20 +289,31 @@ File File::create_parallel(const std::filesystem::path& path, const void* mpi_co
 
 void File::flush() {
   if (H5Fflush(handle_.get(), H5F_SCOPE_GLOBAL) < 0) fail("", "flush failed");
-  // H5Fflush hands the data to the kernel; make it durable as well.
-  const int fd = ::open(name_.c_str(), O_RDONLY);
-  if (fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
-  }
+  // H5Fflush hands the data to the kernel; make it durable as well. A failed sync (EIO, or
+  // ENOSPC where the file system allocates at writeback) means that what was written may never
+  // reach the disk: an error, so that nothing after it (a step's commit) counts on it. EINVAL:
+  // the file system cannot sync this kind of file, which loses nothing.
+  const int opened = parallel_ ? ::open(name_.c_str(), O_RDONLY | O_CLOEXEC) : -1;
+  const int fd = parallel_ ? opened : descriptor();
+  if (fd < 0) return;
+  const int synced = ::fsync(fd);
+  const int error = errno;
+  if (opened >= 0) ::close(opened);
+  if (synced != 0 && error != EINVAL) fail("", std::string("write failed: ") + std::strerror(error));
 }
 
 void File::start_writeback() const {
-  if (parallel_) return;
-  const int fd = ::open(name_.c_str(), O_RDONLY);
-  if (fd < 0) return;
-  ::sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE);
-  ::close(fd);
+  const int fd = descriptor();
+  if (fd >= 0) ::sync_file_range(fd, 0, 0, SYNC_FILE_RANGE_WRITE);
+}
+
+int File::descriptor() const {
+  if (parallel_) return -1;
+  Handle access(H5Fget_access_plist(handle_.get()));
+  if (!access.valid() || H5Pget_driver(access.get()) != H5FD_SEC2) return -1;
+  void* vfd = nullptr;
+  if (H5Fget_vfd_handle(handle_.get(), access.get(), &vfd) < 0 || vfd == nullptr) return -1;
+  return *static_cast<int*>(vfd);
 }
 
 void File::close() { handle_ = Handle(); }

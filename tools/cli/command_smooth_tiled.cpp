@@ -176,6 +176,14 @@ int run_smooth_out_of_core(const Args& args) {
     throw ParamError(std::string(e.what()) + " (the run so far is kept in " +
                      tiles::partial_name(run_output).filename().string() +
                      ": add --resume with a larger --memory-budget to continue it, or remove it)");
+  } catch (const io::IoError& e) {
+    // A failed read or write (a full disk, a disk that fails to sync): a container run keeps
+    // the steps committed before it in its partial file, and says so.
+    std::error_code ec;
+    if (!imported.empty() || !fs::exists(tiles::partial_name(run_output), ec)) throw;
+    throw io::IoError(std::string(e.what()) + " (the steps committed so far are kept in " +
+                      tiles::partial_name(run_output).filename().string() +
+                      ": once the cause is fixed, run the same command with --resume to continue)");
   }
   progress.finish();
 

@@ -169,7 +169,8 @@ class File {
   bool parallel() const { return parallel_; }
   hid id() const { return handle_.get(); }
 
-  /// Writes every cached change to the file (H5Fflush) and syncs it to disk.
+  /// Writes every cached change to the file (H5Fflush) and syncs it to disk. Throws IoError
+  /// "<file>: write failed: <reason>" where the sync fails (e.g. an I/O error).
   void flush();
   /// Asks the kernel to start writing the file's dirty pages to disk, without waiting for
   /// them (sync_file_range): a later flush() then waits only for what is still in flight.
@@ -207,6 +208,8 @@ class File {
  private:
   File(std::filesystem::path name, Handle handle) : name_(std::move(name)), handle_(std::move(handle)) {}
   Handle open_object(std::string_view object) const;
+  /// The descriptor libhdf5's POSIX driver writes the file through; -1 for a parallel file.
+  int descriptor() const;
 
   std::filesystem::path name_;
   Handle handle_;
