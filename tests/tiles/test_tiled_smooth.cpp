@@ -262,6 +262,39 @@ TEST_F(TiledSmoothTest, StreamedHalosFromTheScratchGiveTheSameBits) {
   EXPECT_EQ(left, std::vector<std::string>{"in.h5"});
 }
 
+// Plain streamed steps run as blocks of one step only where the block scratch fits in the
+// budget; in the window of budgets where it does not but the halo scratch does, the steps
+// stream with their halos from the halo scratch, to the same bits.
+TEST_F(TiledSmoothTest, WithoutRoomForTheBlockScratchSingleStepsStreamAsBefore) {
+  const io::PointTable cloud = test::noisy_cube(3000, 23);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 40}, 64));
+  SmoothParams params = few_steps(3);
+  params.shrink_compensation = 0.0;
+  params.neighbors.k = 16;
+  params.lambda_every_step = true;  // the lambda sample takes room too
+  const InCore ref = run_in_core(cloud, params);
+  std::uint64_t found = 0;
+  for (std::uint64_t budget = std::uint64_t{256} << 10; budget <= std::uint64_t{900} << 10 && found == 0;
+       budget += std::uint64_t{8} << 10) {
+    OutOfCoreOptions options;
+    options.memory_budget = budget;
+    OutOfCoreReport r;
+    try {
+      r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, options);
+    } catch (const BudgetError&) {
+      std::filesystem::remove(path("run.h5.partial"));
+      continue;
+    }
+    if (r.halo_scratch && !r.step_blocks && !r.neighbors_cached) {
+      found = budget;
+      expect_identical(path("run.h5"), ref);
+    }
+    std::filesystem::remove(path("run.h5"));
+    if (r.neighbors_cached || r.positions_held) break;  // larger budgets keep the lists
+  }
+  EXPECT_GT(found, 0u) << "no budget between 256 and 900 KiB kept the halo scratch but refused the block scratch";
+}
+
 // --rebuild-every: the lists are built again from the current positions (eps resolved again,
 // halos around the tiles' current bounds), to the in-core bits, for every lambda policy; a
 // run interrupted around a rebuild resumes to the same bits.
