@@ -1,0 +1,66 @@
+#pragma once
+// The neighbour lists of the out-of-core run's tiles: a tile's gathered points with their
+// halo, the quadric finish's lists of them, and a tile's lists in local indices.
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "pointfair/neighborhoods.hpp"
+#include "pointfair/parallel.hpp"
+#include "vector_bytes.hpp"
+
+namespace pointfair::tiles::detail {
+
+// A tile's points plus its halo, sorted by original index (for neighbourhood building).
+struct LocalSet {
+  std::vector<Vec3> positions;
+  std::vector<std::uint64_t> rows;      // container rows
+  std::vector<std::uint64_t> original;  // original indices
+  std::vector<Index> queries;           // local indices of the tile's own points, in row order
+  std::uint64_t bytes() const {
+    return detail::bytes(positions) + detail::bytes(rows) + detail::bytes(original) + detail::bytes(queries);
+  }
+};
+
+// The quadric finish's lists of one tile's gathered points (LocalSet, local indices): each
+// tile point's fit (its k nearest; row r: the tile's row r), and the rows every normal those
+// fits read is fitted to (a row for every gathered point, empty for those no fit reads).
+struct FinishLists {
+  Neighborhoods fits;
+  Neighborhoods normals;
+  std::uint64_t near_bytes = 0;  // what built the halo points' rows held
+  std::uint64_t bytes() const {
+    return detail::bytes(fits.indices) + detail::bytes(fits.counts) + detail::bytes(normals.indices) +
+           detail::bytes(normals.counts) + near_bytes;
+  }
+};
+
+// The neighbour lists of one tile in local indices: local index s < tile size is row
+// tile_begin + order[s] (order empty: s itself), else halo_rows[s - tile size]. The order is
+// the Morton order of the tile's points (spatial_order.hpp), as the in-core steps use: a
+// point's neighbours sit near it in memory, which the input's order inside a tile (the
+// import keeps it) does not give. Each list keeps its order, so no bit of a result changes.
+struct TileNeighbors {
+  Neighborhoods local;
+  std::vector<std::uint64_t> halo_rows;
+  std::vector<Index> order;
+  std::uint64_t bytes() const {
+    return detail::bytes(local.indices) + detail::bytes(local.counts) + detail::bytes(halo_rows) + detail::bytes(order);
+  }
+  // values[order[s]] = local[s] for the tile's rows (row order from local order).
+  template <class T, class U>
+  void to_rows(const std::vector<T>& local_values, std::vector<U>& values, std::size_t rows) const {
+    if (values.size() < rows) values.resize(rows);
+    parallel_for(rows, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t s = begin; s < end; ++s) values[order.empty() ? s : order[s]] = static_cast<U>(local_values[s]);
+    }, 8192);
+  }
+  // positions[s] = by_row[order[s]] for the tile's rows (local order from row order).
+  void to_local(const std::vector<Vec3>& by_row, std::vector<Vec3>& positions, std::size_t rows) const {
+    parallel_for(rows, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t s = begin; s < end; ++s) positions[s] = by_row[order[s]];
+    }, 8192);
+  }
+};
+
+}  // namespace pointfair::tiles::detail

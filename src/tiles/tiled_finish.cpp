@@ -1,0 +1,232 @@
+// The quadric finish out of core, the attributes and the end of the run.
+#include "tiled_run.hpp"
+
+namespace pointfair::tiles::detail {
+
+// ---- the quadric finish -------------------------------------------------------------------------
+
+std::optional<FinishLists> Run::finish_lists(std::size_t t, double halo, const LocalSet& local,
+                                             const QuadricProjectionParams& q) const {
+  // finish_with_quadrics's lists on the tile's gathered points (sorted by original index: the
+  // canonical tie rule). Empty (the halo must grow) unless every row is certain to be the
+  // in-core one: its farthest entry lies inside what was gathered.
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const std::size_t n = local.positions.size(), kk = static_cast<std::size_t>(q.k);
+  const bool all = covers_all(t, halo);
+  FinishLists lists;
+  lists.fits = build_neighborhoods(local.positions, local.queries, q.k, inf);
+  std::vector<char> in_tile(n, 0), named(n, 0);
+  for (const Index i : local.queries) in_tile[i] = 1;
+  for (std::size_t r = 0; r < lists.fits.size(); ++r) {
+    const std::span<const Index> row = lists.fits.of(r);
+    if (!all && (row.size() < kk || !((local.positions[row.back()] - local.positions[local.queries[r]]).norm() <
+                                       halo * (1.0 - kHaloMargin))))
+      return std::nullopt;
+    for (const Index j : row) named[j] = !in_tile[j];
+  }
+  std::vector<Index> halo_queries;
+  for (std::size_t i = 0; i < n; ++i)
+    if (named[i]) halo_queries.push_back(static_cast<Index>(i));
+  // A normal reads the first normal_neighbors of the point's row; a prefix of the canonical
+  // order is the canonical order of fewer neighbours.
+  const int m = std::min(q.k, q.normal_neighbors);
+  const Neighborhoods near = build_neighborhoods(local.positions, halo_queries, m, inf);
+  if (!all) {
+    // A halo point's ball lies inside the box around the tile that was gathered.
+    const Box& b = tiles_.bounds[t];
+    for (std::size_t r = 0; r < near.size(); ++r) {
+      const std::span<const Index> row = near.of(r);
+      if (row.size() < static_cast<std::size_t>(m)) return std::nullopt;
+      const Vec3& p = local.positions[halo_queries[r]];
+      const double reach = (local.positions[row.back()] - p).norm() + halo * kHaloMargin;
+      for (Eigen::Index c = 0; c < 3; ++c) {
+        const std::size_t lo = static_cast<std::size_t>(c), hi = lo + 3;
+        if (!(p[c] - reach > b[lo] - halo && p[c] + reach < b[hi] + halo)) return std::nullopt;
+      }
+    }
+  }
+  // The normals' rows: the tile's points and the halo points the fits name; the others empty.
+  Neighborhoods& normal_rows = lists.normals;
+  normal_rows.stride = m;
+  normal_rows.eps = inf;
+  normal_rows.counts.assign(n, 0);
+  normal_rows.indices.assign(n * static_cast<std::size_t>(m), 0);
+  const auto put = [&](std::span<const Index> row, Index i) {
+    const std::size_t count = std::min(row.size(), static_cast<std::size_t>(m));
+    std::copy(row.begin(), row.begin() + static_cast<std::ptrdiff_t>(count),
+              normal_rows.indices.begin() + static_cast<std::ptrdiff_t>(i * static_cast<std::size_t>(m)));
+    normal_rows.counts[i] = static_cast<std::uint16_t>(count);
+  };
+  for (std::size_t r = 0; r < lists.fits.size(); ++r) put(lists.fits.of(r), local.queries[r]);
+  for (std::size_t r = 0; r < near.size(); ++r) put(near.of(r), halo_queries[r]);
+  lists.near_bytes = bytes(near.indices) + bytes(near.counts) + bytes(halo_queries) + 2 * n;
+  return lists;
+}
+
+void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::vector<Vec3>& result) {
+  // One pass of finish_with_quadrics for tile t's points, from the positions in
+  // neighbor_source_: into `result`, in row order.
+  for (double halo = knn_first_halo(t, q.k);; halo *= 2.0) {
+    const LocalSet local = gather_local(t, halo);
+    const std::optional<FinishLists> lists = finish_lists(t, halo, local, q);
+    // The cell grids held about 48 bytes a point while they searched.
+    const std::uint64_t searched = local.bytes() + local.positions.size() * 50;
+    if (!lists) {
+      account(searched);
+      continue;
+    }
+    const std::vector<Vec3> normals = neighbourhood_normals(local.positions, lists->normals, q);
+    result.resize(local.queries.size());
+    project_rows_to_quadrics(local.positions, normals, lists->fits, local.queries, q, result);
+    largest_local_ = std::max<std::uint64_t>(largest_local_, local.positions.size());
+    account(searched + lists->bytes() + bytes(normals) + bytes(result));
+    return;
+  }
+}
+
+bool Run::run_finish(OutOfCoreReport& report) {
+  // The passes of finish_with_quadrics after the last step, each from the last one's
+  // positions into the other buffer and committed like a step. False when stopped
+  // (OutOfCoreOptions::stop_after_finish_passes).
+  if (!options_.quadric_finish) return true;
+  const QuadricProjectionParams& q = *options_.quadric_finish;
+  int pass = static_cast<int>(state_[kFinishPasses]);
+  report.finish_passes = pass;
+  if (pass >= q.passes) return true;
+  const auto t0 = Clock::now();
+  // The flow's lists stay on file for the attributes; their memory goes to the wider halos.
+  cache_.assign(tiles_.size(), {});
+  cache_bytes_ = 0;
+  const std::uint64_t writes = tiles_to_write();
+  std::vector<Vec3> result;
+  int passes_here = 0;
+  for (; pass < q.passes; ++pass) {
+    if (pass == 0 && ranks_->rank() == 0) file().dataset(kStopLambda).write_rows(0, 1, &stop_lambda_);
+    // The halos are found around the tiles' bounds in the positions the pass starts from.
+    neighbor_source_ = current_source();
+    measure_bounds();
+    h5::Dataset target = file().dataset(positions_buffer(target_buffer()));
+    for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+      const std::uint64_t rows = tiles_.rows(t);
+      if (rows == 0) continue;
+      finish_tile(t, q, result);
+      target.write_rows(tiles_.offsets[t], rows, result.data()->data(), h5::Transfer::Collective);
+      progress("finish", t + 1 - first_tile_, end_tile_ - first_tile_);
+    }
+    // Collective writes: as many per rank as the rank with the most tiles.
+    for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
+    state_[kStepBuffer] = target_code(false);
+    state_[kFinishPasses] = pass + 1;
+    commit_state();
+    report.finish_passes = pass + 1;
+    ++passes_here;
+    if (options_.stop_after_finish_passes >= 0 && passes_here >= options_.stop_after_finish_passes) {
+      report.seconds_finish += seconds_since(t0);
+      return false;
+    }
+  }
+  report.seconds_finish += seconds_since(t0);
+  return true;
+}
+
+// ---- attributes and the end ---------------------------------------------------------------------
+
+std::size_t Run::write_attributes(double lambda) {
+  const std::string source_path = current_source();
+  const h5::Dataset source = file().dataset(source_path);
+  // compute_attributes orients normals away from the centre of the bounding box.
+  // Each rank bounds its own rows; the box of the cloud is the maximum over the ranks of
+  // (-min, max).
+  Eigen::AlignedBox3d box;
+  std::vector<Vec3> block;
+  for (std::uint64_t first = my_first_row(); first < my_end_row(); first += kScanBlock) {
+    const std::uint64_t count = std::min(kScanBlock, my_end_row() - first);
+    block.resize(count);
+    source.read_rows(first, count, block.data()->data());
+    for (const Vec3& p : block) box.extend(p);
+  }
+  if (ranks_->size() > 1) {
+    std::array<double, 6> extent = {-box.min().x(), -box.min().y(), -box.min().z(),
+                                    box.max().x(),  box.max().y(),  box.max().z()};
+    ranks_->max(extent);
+    box = Eigen::AlignedBox3d(Vec3(-extent[0], -extent[1], -extent[2]), Vec3(extent[3], extent[4], extent[5]));
+  }
+  const std::string a = layout::run_attributes;
+  h5::Dataset normal = file().dataset(a + "/normal"), d1 = file().dataset(a + "/d1"), d2 = file().dataset(a + "/d2");
+  h5::Dataset k1 = file().dataset(a + "/k1"), k2 = file().dataset(a + "/k2");
+  h5::Dataset mean = file().dataset(a + "/mean_curvature"), lap = file().dataset(a + "/laplacian_norm");
+  h5::Dataset feature = file().dataset(a + "/feature_class");
+  std::vector<Vec3> local, vn, vd1, vd2;
+  std::vector<double> vk1, vk2, vmean, vlap;
+  std::vector<std::uint8_t> vfeature;
+  Neighborhoods extended;
+  std::size_t degenerate = 0;
+  const std::uint64_t writes = tiles_to_write();
+  constexpr h5::Transfer together = h5::Transfer::Collective;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    const std::uint64_t rows = tiles_.rows(t), begin = tiles_.offsets[t];
+    if (rows == 0) continue;
+    const std::shared_ptr<const TileNeighbors> lists = neighbors_of(t);
+    const TileNeighbors& nb = *lists;
+    const bool cached = caching_ && cache_[t] == lists;
+    read_tile_positions(t, nb, source, local, vn);  // vn: the rows in row order, until it is written below
+    // compute_attributes itself on the tile: the halo rows get no neighbours (they are
+    // evaluated elsewhere), and two extra points at the corners of the whole cloud's bounding
+    // box make its centre, which orients the normals, the in-core one.
+    const std::size_t extra = local.size() - rows + 2;
+    local.push_back(box.min());
+    local.push_back(box.max());
+    extended.stride = nb.local.stride;
+    extended.eps = nb.local.eps;
+    extended.indices = nb.local.indices;
+    extended.indices.resize(local.size() * static_cast<std::size_t>(extended.stride), 0);
+    extended.counts = nb.local.counts;
+    extended.counts.resize(local.size(), 0);
+    const PointAttributes pa = compute_attributes(local, extended, params_.flow, lambda);
+    degenerate += pa.degenerate - extra;
+    // Back from the lists' order to row order.
+    nb.to_rows(pa.normal, vn, rows);
+    nb.to_rows(pa.d1, vd1, rows);
+    nb.to_rows(pa.d2, vd2, rows);
+    nb.to_rows(pa.k1, vk1, rows);
+    nb.to_rows(pa.k2, vk2, rows);
+    nb.to_rows(pa.mean_curvature, vmean, rows);
+    nb.to_rows(pa.laplacian_norm, vlap, rows);
+    nb.to_rows(pa.feature, vfeature, rows);
+    normal.write_rows(begin, rows, vn.data()->data(), together);
+    d1.write_rows(begin, rows, vd1.data()->data(), together);
+    d2.write_rows(begin, rows, vd2.data()->data(), together);
+    k1.write_rows(begin, rows, vk1.data(), together);
+    k2.write_rows(begin, rows, vk2.data(), together);
+    mean.write_rows(begin, rows, vmean.data(), together);
+    lap.write_rows(begin, rows, vlap.data(), together);
+    feature.write_rows(begin, rows, vfeature.data(), together);
+    account(bytes(local) + bytes(extended.indices) + bytes(extended.counts) +
+            pa.normal.size() * (9 * sizeof(double) + 4 * sizeof(double) + 1) + 3 * bytes(vn) + 4 * bytes(vk1) +
+            bytes(vfeature) + (cached ? 0 : nb.bytes()));
+    progress("attributes", t + 1 - first_tile_, end_tile_ - first_tile_);
+  }
+  for (std::uint64_t w = my_tiles(); w < writes; ++w) {
+    for (h5::Dataset* d : {&normal, &d1, &d2, &k1, &k2, &mean, &lap}) d->write_rows<double>(0, 0, nullptr, together);
+    feature.write_rows<std::uint8_t>(0, 0, nullptr, together);
+  }
+  return static_cast<std::size_t>(ranks_->sum(degenerate));
+}
+
+void Run::finish(std::size_t attributes_degenerate, double lambda) {
+  // Rank 0 alone from here (release()): attributes are metadata.
+  if (options_.attributes) {
+    file().set_attribute(layout::run_attributes, "degenerate", static_cast<std::int64_t>(attributes_degenerate));
+    file().set_attribute(layout::run_attributes, "lambda", lambda);
+  }
+  file().set_attribute(layout::run, "result_positions", current_source());
+  file().set_attribute(layout::run, "eps", eps_);
+  state_[kFinished] = 1;
+  commit_state();
+  file_.reset();
+  std::error_code ec;
+  fs::rename(partial_name(output_), output_, ec);
+  if (ec) throw io::IoError(output_.string() + ": cannot rename the finished run into place: " + ec.message());
+}
+
+}  // namespace pointfair::tiles::detail

@@ -1,0 +1,418 @@
+// The tiles' neighbourhoods (gathered with their halos, built, rebuilt) and the lambda sample.
+#include "tiled_run.hpp"
+
+namespace pointfair::tiles::detail {
+
+// ---- neighbourhoods ---------------------------------------------------------------------------
+
+bool Run::covers_all(std::size_t t, double halo) const {
+  const Box& b = tiles_.bounds[t];
+  for (std::size_t c = 0; c < 3; ++c)
+    if (b[c] - halo > global_bounds_[c] || b[c + 3] + halo < global_bounds_[c + 3]) return false;
+  return true;
+}
+
+double Run::first_halo(std::size_t t) const {
+  if (std::isfinite(eps_) && eps_ > 0.0) return eps_ * (1.0 + 1e-6);
+  return knn_first_halo(t, k());
+}
+
+double Run::knn_first_halo(std::size_t t, int neighbors) const {
+  // Unbounded eps: start from the spacing a surface patch of the tile's size would have,
+  // and grow until every (k+1)-th neighbour lies inside the halo.
+  const Box& b = tiles_.bounds[t];
+  const double side = std::max({b[3] - b[0], b[4] - b[1], b[5] - b[2], 0.0});
+  const double diag = std::hypot(global_bounds_[3] - global_bounds_[0], global_bounds_[4] - global_bounds_[1],
+                                 global_bounds_[5] - global_bounds_[2]);
+  const double rows = static_cast<double>(std::max<std::uint64_t>(1, tiles_.rows(t)));
+  return std::max(2.0 * side * std::sqrt((neighbors + 1.0) / rows), 1e-12 * (1.0 + diag));
+}
+
+LocalSet Run::gather_local(std::size_t t, double halo) const {
+  const h5::Dataset pos = file().dataset(neighbor_source_);
+  const h5::Dataset orig = file().dataset(layout::original_index);
+  const Box& own = tiles_.bounds[t];
+  Box grown = own;
+  for (std::size_t c = 0; c < 3; ++c) {
+    grown[c] -= halo;
+    grown[c + 3] += halo;
+  }
+  struct Entry {
+    std::uint64_t original, row;
+    Vec3 p;
+  };
+  std::vector<Entry> entries;
+  std::vector<double> xyz;
+  std::vector<std::uint64_t> index;
+  for (std::size_t u = 0; u < tiles_.size(); ++u) {
+    if (tiles_.rows(u) == 0 || (u != t && !intersects(own, halo, tiles_.bounds[u]))) continue;
+    for (std::uint64_t first = tiles_.offsets[u]; first < tiles_.offsets[u + 1]; first += kScanBlock) {
+      const std::uint64_t count = std::min(kScanBlock, tiles_.offsets[u + 1] - first);
+      xyz.resize(3 * count);
+      index.resize(count);
+      pos.read_rows(first, count, xyz.data());
+      orig.read_rows(first, count, index.data());
+      for (std::uint64_t r = 0; r < count; ++r) {
+        const Vec3 p(xyz[3 * r], xyz[3 * r + 1], xyz[3 * r + 2]);
+        if (!p.allFinite())
+          file().fail(neighbor_source_, "row " + std::to_string(first + r) + " has a non-finite coordinate");
+        bool inside = u == t;
+        if (!inside) {
+          inside = true;
+          for (std::size_t c = 0; c < 3 && inside; ++c)
+            inside = p[static_cast<Eigen::Index>(c)] >= grown[c] && p[static_cast<Eigen::Index>(c)] <= grown[c + 3];
+        }
+        if (inside) entries.push_back({index[r], first + r, p});
+      }
+    }
+  }
+  // Local indices ascending with the original index: the tie rule of the canonical order.
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) { return a.original < b.original; });
+  LocalSet s;
+  s.positions.reserve(entries.size());
+  s.rows.reserve(entries.size());
+  s.original.reserve(entries.size());
+  s.queries.assign(tiles_.rows(t), 0);
+  const std::uint64_t begin = tiles_.offsets[t], end = tiles_.offsets[t + 1];
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    s.positions.push_back(entries[i].p);
+    s.rows.push_back(entries[i].row);
+    s.original.push_back(entries[i].original);
+    if (entries[i].row >= begin && entries[i].row < end) s.queries[entries[i].row - begin] = static_cast<Index>(i);
+  }
+  return s;
+}
+
+template <class Measure>
+void Run::for_each_sample_knn(std::uint64_t stride, int want, const char* stage, Measure&& measure) {
+  const h5::Dataset orig = file().dataset(layout::original_index);
+  std::vector<std::uint64_t> index;
+  const double saved_eps = eps_;
+  eps_ = std::numeric_limits<double>::infinity();  // first_halo: grow from the tile's spacing
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    const std::uint64_t rows = tiles_.rows(t);
+    if (rows == 0) continue;
+    index.resize(rows);
+    orig.read_rows(tiles_.offsets[t], rows, index.data());
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> mine;  // (sample, row in tile)
+    for (std::uint64_t r = 0; r < rows; ++r)
+      if (index[r] % stride == 0) mine.emplace_back(index[r] / stride, r);
+    if (mine.empty()) continue;
+    for (double halo = first_halo(t);; halo *= 2.0) {
+      const LocalSet local = gather_local(t, halo);
+      std::vector<Index> queries(mine.size());
+      for (std::size_t i = 0; i < mine.size(); ++i) queries[i] = local.queries[mine[i].second];
+      const NearestPoints near = nearest_points(local.positions, queries, want);
+      // The cell grid held about 48 bytes a point while it searched.
+      account(local.bytes() + local.positions.size() * 48 + bytes(queries) + bytes(near.indices) +
+              bytes(near.distances2) + bytes(near.counts));
+      const bool all = covers_all(t, halo);
+      std::atomic<bool> ok{true};
+      parallel_for(mine.size(), [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          const std::span<const Index> idx = near.indices_of(i);
+          const std::span<const double> d2 = near.distances2_of(i);
+          const int found = near.counts[i];
+          // Settled when the halo holds all `want` points: the farthest lies inside it.
+          if (!all && (found < want || !(std::sqrt(d2[static_cast<std::size_t>(found - 1)]) < halo * (1.0 - kHaloMargin)))) {
+            ok = false;
+            continue;
+          }
+          measure(mine[i].first, idx, d2, local.positions);
+        }
+      }, 64);
+      if (ok) break;
+    }
+    progress(stage, t + 1 - first_tile_, end_tile_ - first_tile_);
+  }
+  eps_ = saved_eps;
+}
+
+double Run::resolve_eps_tiled() {
+  NeighborParams np = params_.neighbors;
+  np.validate();
+  if (np.eps > 0.0) return np.eps;
+  if (n_ < 2) return std::numeric_limits<double>::infinity();
+  // The in-core resolve_eps: median distance to the (k+1)-th nearest point (the point itself
+  // included) over the points with original index s * stride.
+  const std::uint64_t stride = std::max<std::uint64_t>(1, n_ / 65536);
+  const std::uint64_t samples = (n_ + stride - 1) / stride;
+  const int want = static_cast<int>(std::min<std::uint64_t>(static_cast<std::uint64_t>(k()) + 1, n_));
+  std::vector<double> kth(samples, 0.0);
+  for_each_sample_knn(stride, want, "eps",
+                      [&](std::uint64_t sample, std::span<const Index>, std::span<const double> d2,
+                          std::span<const Vec3>) { kth[sample] = d2.empty() ? 0.0 : std::sqrt(d2.back()); });
+  ranks_->max(kth);  // each sample was measured by the rank of its tile, 0 elsewhere
+  auto mid = kth.begin() + static_cast<std::ptrdiff_t>(samples / 2);
+  std::nth_element(kth.begin(), mid, kth.end());
+  const double spacing = *mid;
+  if (!(spacing > 0.0)) return std::numeric_limits<double>::infinity();
+  return np.eps_auto_factor * spacing;
+}
+
+int Run::resolve_k_tiled() {
+  // automatic_k(): the noise ratio of the points with original index s * stride, each over its
+  // kNoiseProbePoints nearest points, found in the tile and a halo that holds them all.
+  const std::uint64_t stride = noise_sample_stride(n_);
+  const std::uint64_t samples = (n_ + stride - 1) / stride;
+  const int want = static_cast<int>(std::min<std::uint64_t>(kNoiseProbePoints, n_));
+  // -1: not this rank's sample; -0.5: measured, not usable (NaN, which a max would not carry).
+  std::vector<double> ratios(samples, -1.0);
+  for_each_sample_knn(stride, want, "k",
+                      [&](std::uint64_t sample, std::span<const Index> idx, std::span<const double> d2,
+                          std::span<const Vec3> positions) {
+                        std::vector<ProbePoint> probe;
+                        probe.reserve(idx.size());
+                        for (std::size_t j = 0; j < idx.size(); ++j) probe.push_back({d2[j], positions[idx[j]]});
+                        const double g = noise_ratio(probe, probe.size() == n_);
+                        ratios[sample] = std::isfinite(g) ? g : -0.5;
+                      });
+  ranks_->max(ratios);  // each sample was measured by the rank of its tile
+  for (double& g : ratios)
+    if (g < 0.0) g = std::numeric_limits<double>::quiet_NaN();
+  return k_for_noise_ratio(cloud_noise_ratio(ratios));
+}
+
+void Run::build_neighbors(int step) {
+  eps_ = resolve_eps_tiled();
+  h5::Dataset rows_ds = file().dataset(layout::neighbor_rows);
+  h5::Dataset counts_ds = file().dataset(layout::neighbor_counts);
+  const std::size_t stride = static_cast<std::size_t>(k());
+  h5::Dataset halo_ds = file().dataset(layout::neighbor_halo_counts);
+  std::vector<std::uint32_t> out, outside;
+  const std::uint64_t writes = tiles_to_write();
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) {
+    const std::uint64_t rows = tiles_.rows(t);
+    if (rows == 0) continue;
+    for (double halo = first_halo(t);; halo *= 2.0) {
+      LocalSet local = gather_local(t, halo);
+      const Neighborhoods nb = build_neighborhoods(local.positions, local.queries, k(), eps_);
+      // Exact when the halo holds every point within eps, or, for a larger eps, when every
+      // point's (k+1)-th nearest point lies inside the halo.
+      bool ok = std::isfinite(eps_) || covers_all(t, halo);
+      if (!ok) {
+        ok = true;
+        for (std::size_t r = 0; r < nb.size() && ok; ++r) {
+          if (nb.counts[r] < k()) {
+            ok = false;
+            break;
+          }
+          const Vec3& q = local.positions[local.queries[r]];
+          const Vec3& last = local.positions[nb.indices[r * stride + stride - 1]];
+          ok = (last - q).norm() < halo * (1.0 - kHaloMargin);
+        }
+      }
+      if (!ok) continue;
+      largest_local_ = std::max<std::uint64_t>(largest_local_, local.positions.size());
+      out.resize(rows * stride);
+      for (std::size_t r = 0; r < nb.size(); ++r)
+        for (std::size_t j = 0; j < stride; ++j)
+          out[r * stride + j] = j < nb.counts[r] ? static_cast<std::uint32_t>(local.rows[nb.indices[r * stride + j]]) : 0u;
+      account(local.bytes() + local.positions.size() * 16 + bytes(nb.indices) + bytes(nb.counts) + bytes(out));
+      rows_ds.write_rows(tiles_.offsets[t], rows, out.data(), h5::Transfer::Collective);
+      counts_ds.write_rows(tiles_.offsets[t], rows, nb.counts.data(), h5::Transfer::Collective);
+      // The halo a step reads: the distinct neighbours outside the tile (balances the steps).
+      outside.clear();
+      for (std::size_t r = 0; r < nb.size(); ++r)
+        for (std::size_t j = 0; j < nb.counts[r]; ++j) {
+          const std::uint32_t g = out[r * stride + j];
+          if (g < tiles_.offsets[t] || g >= tiles_.offsets[t + 1]) outside.push_back(g);
+        }
+      std::sort(outside.begin(), outside.end());
+      const std::uint64_t halo_count =
+          static_cast<std::uint64_t>(std::unique(outside.begin(), outside.end()) - outside.begin());
+      halo_ds.write_rows(t, 1, &halo_count, h5::Transfer::Collective);
+      break;
+    }
+    progress("neighbors", t + 1 - first_tile_, end_tile_ - first_tile_);
+  }
+  for (std::uint64_t w = my_tiles(); w < writes; ++w) {
+    rows_ds.write_rows<std::uint32_t>(0, 0, nullptr, h5::Transfer::Collective);
+    counts_ds.write_rows<std::uint16_t>(0, 0, nullptr, h5::Transfer::Collective);
+    halo_ds.write_rows<std::uint64_t>(0, 0, nullptr, h5::Transfer::Collective);
+  }
+  if (ranks_->rank() == 0) file().dataset(layout::run_eps).write_rows(0, 1, &eps_);
+  state_[kNeighborsDone] = 1;
+  state_[kNeighborsStep] = step;
+  commit_state();
+}
+
+void Run::load_reference() {
+  // The reference lists its points in the input's original order; rows hold them in tile
+  // order. In passes over blocks of original indices that fit in an eighth of the budget: read the
+  // block from the reference (streamed from its start), then put each of this rank's rows
+  // whose original index falls in it.
+  const fs::path& path = options_.neighbor_reference;
+  const auto open = [&]() -> std::unique_ptr<io::PointChunkReader> {
+    std::string e = path.extension().string();
+    for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    if (e == ".h5" || e == ".hdf5") return std::make_unique<ContainerChunkReader>(path);
+    return io::open_point_reader(path);
+  };
+  const h5::Dataset orig = file().dataset(layout::original_index);
+  h5::Dataset target = file().dataset(kReferencePositions);
+  constexpr std::size_t kChunk = 1u << 14;
+  const std::uint64_t block = std::max<std::uint64_t>(1024, options_.memory_budget / 8 / sizeof(Vec3));
+  std::vector<Vec3> values, rows;
+  std::vector<std::uint64_t> index;
+  io::PointTable chunk;
+  for (std::uint64_t a = 0; a < std::max<std::uint64_t>(n_, 1); a += block) {
+    const std::uint64_t b = std::min(n_, a + block);
+    values.assign(b - a, Vec3::Zero());
+    const auto reader = open();
+    std::uint64_t at = 0;
+    // The first pass reads the whole reference, to check its size.
+    while (a == 0 || at < b) {
+      const std::size_t got = reader->read(chunk, kChunk);
+      if (got == 0) break;
+      for (std::size_t i = 0; i < got; ++i)
+        if (at + i >= a && at + i < b) values[at + i - a] = chunk.positions[i];
+      at += got;
+      account(bytes(values) + bytes(chunk.positions) + chunk.attributes.size() * kChunk * sizeof(double));
+    }
+    if (a == 0 && at != n_)
+      throw ParamError("the neighbour reference " + path.string() + " has " + std::to_string(at) +
+                       " points, the input " + std::to_string(n_));
+    for (std::uint64_t first = my_first_row(); first < my_end_row(); first += kScanBlock) {
+      const std::uint64_t count = std::min(kScanBlock, my_end_row() - first);
+      index.resize(count);
+      orig.read_rows(first, count, index.data());
+      const bool all = std::all_of(index.begin(), index.end(), [&](std::uint64_t o) { return o >= a && o < b; });
+      const bool any = all || std::any_of(index.begin(), index.end(), [&](std::uint64_t o) { return o >= a && o < b; });
+      if (!any) continue;
+      rows.resize(count);
+      if (!all) target.read_rows(first, count, rows.data()->data());
+      for (std::uint64_t r = 0; r < count; ++r)
+        if (index[r] >= a && index[r] < b) rows[r] = values[index[r] - a];
+      target.write_rows(first, count, rows.data()->data());
+    }
+  }
+  free_vector(values);
+}
+
+void Run::measure_bounds() {
+  // Points move: the halo of a rebuild needs the bounds of every tile's current points. Each
+  // rank measures its own tiles; the maximum of (-min, max) over the ranks is every tile's.
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> extent(6 * tiles_.size(), -inf);
+  const h5::Dataset pos = file().dataset(neighbor_source_);
+  std::vector<Vec3> block;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t)
+    for (std::uint64_t first = tiles_.offsets[t]; first < tiles_.offsets[t + 1]; first += kScanBlock) {
+      const std::uint64_t count = std::min(kScanBlock, tiles_.offsets[t + 1] - first);
+      block.resize(count);
+      pos.read_rows(first, count, block.data()->data());
+      for (const Vec3& p : block)
+        for (Eigen::Index c = 0; c < 3; ++c) {
+          const std::size_t i = 6 * t + static_cast<std::size_t>(c);
+          extent[i] = std::max(extent[i], -p[c]);
+          extent[i + 3] = std::max(extent[i + 3], p[c]);
+        }
+    }
+  ranks_->max(extent);
+  global_bounds_ = {inf, inf, inf, -inf, -inf, -inf};
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    if (tiles_.rows(t) == 0) continue;
+    for (std::size_t c = 0; c < 3; ++c) {
+      tiles_.bounds[t][c] = -extent[6 * t + c];
+      tiles_.bounds[t][c + 3] = extent[6 * t + c + 3];
+      global_bounds_[c] = std::min(global_bounds_[c], tiles_.bounds[t][c]);
+      global_bounds_[c + 3] = std::max(global_bounds_[c + 3], tiles_.bounds[t][c + 3]);
+    }
+  }
+}
+
+void Run::rebuild_neighbors(int step) {
+  // smooth()'s rebuild: eps resolved again and the lists built from the step's positions,
+  // over the same tiles with a geometric halo around their current bounds. The halo scratch
+  // is of the old halos (made again for the new ones by the next streamed step).
+  release_scratch();
+  neighbor_source_ = current_source();
+  measure_bounds();
+  build_neighbors(step);
+  // The lists in memory and in tile-local indices are the old ones, and so are the halos of
+  // the positions held in memory.
+  release_positions();
+  cache_.assign(tiles_.size(), {});
+  cache_bytes_ = 0;
+  caching_ = true;
+  local_written_.assign(tiles_.size(), 0);
+  halo_rows_.assign(tiles_.size(), {});
+  halo_bytes_ = 0;
+  if (auto_lambda_on()) {
+    prepare_lambda_sample();
+    load_sample_positions(file().dataset(neighbor_source_));
+  }
+}
+
+// ---- the lambda sample ------------------------------------------------------------------------
+
+void Run::prepare_lambda_sample() {
+  if (n_ == 0) return;
+  // The in-core auto_lambda: the points with original index s * stride, stride = n / 8192.
+  const std::uint64_t stride = std::max<std::uint64_t>(1, n_ / 8192);
+  const std::uint64_t samples = (n_ + stride - 1) / stride;
+  sample_rows_.assign(samples, 0);
+  const h5::Dataset orig = file().dataset(layout::original_index);
+  std::vector<std::uint64_t> index;
+  // Each rank finds the samples among its rows (0 elsewhere); the maximum over the ranks is
+  // every sample's row.
+  for (std::uint64_t first = my_first_row(); first < my_end_row(); first += kScanBlock) {
+    const std::uint64_t count = std::min(kScanBlock, my_end_row() - first);
+    index.resize(count);
+    orig.read_rows(first, count, index.data());
+    for (std::uint64_t r = 0; r < count; ++r)
+      if (index[r] % stride == 0) sample_rows_[index[r] / stride] = first + r;
+  }
+  ranks_->max(sample_rows_);
+  std::vector<std::uint64_t> sorted = sample_rows_;
+  std::sort(sorted.begin(), sorted.end());
+  const std::size_t kk = static_cast<std::size_t>(k());
+  std::vector<std::uint32_t> lists(sorted.size() * kk);
+  std::vector<std::uint16_t> counts(sorted.size());
+  file().dataset(layout::neighbor_rows).read_selected(sorted, lists.data());
+  file().dataset(layout::neighbor_counts).read_selected(sorted, counts.data());
+  gather_rows_ = sorted;
+  for (std::size_t i = 0; i < sorted.size(); ++i)
+    for (std::size_t j = 0; j < counts[i]; ++j) gather_rows_.push_back(lists[i * kk + j]);
+  std::sort(gather_rows_.begin(), gather_rows_.end());
+  gather_rows_.erase(std::unique(gather_rows_.begin(), gather_rows_.end()), gather_rows_.end());
+  gather_rows_.shrink_to_fit();
+  auto local_of = [&](std::uint64_t row) {
+    return static_cast<Index>(std::lower_bound(gather_rows_.begin(), gather_rows_.end(), row) - gather_rows_.begin());
+  };
+  sample_local_.resize(samples);
+  sample_counts_.resize(samples);
+  sample_neighbors_.assign(samples * kk, 0);
+  for (std::uint64_t s = 0; s < samples; ++s) {
+    const std::size_t i = static_cast<std::size_t>(std::lower_bound(sorted.begin(), sorted.end(), sample_rows_[s]) - sorted.begin());
+    sample_local_[s] = local_of(sample_rows_[s]);
+    sample_counts_[s] = counts[i];
+    for (std::size_t j = 0; j < counts[i]; ++j) sample_neighbors_[s * kk + j] = local_of(lists[i * kk + j]);
+  }
+}
+
+void Run::load_sample_positions(const h5::Dataset& positions) {
+  gather_positions_.resize(gather_rows_.size());
+  if (!gather_rows_.empty()) positions.read_selected(gather_rows_, gather_positions_.data()->data());
+}
+
+double Run::sample_lambda() const {
+  // auto_lambda (euler_step.cpp) on the gathered sample: the same points and the same
+  // per-point and global medians; tests check that both agree to the bit.
+  if (n_ == 0) return 1.0;
+  const std::size_t samples = sample_rows_.size();
+  const std::size_t kk = static_cast<std::size_t>(k());
+  const std::span<const Vec3> points = gather_positions_;
+  std::vector<double> medians(samples, -1.0);
+  parallel_for(samples, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t s = begin; s < end; ++s) {
+      const Index i = sample_local_[s];
+      const std::span<const Index> nb(sample_neighbors_.data() + s * kk, sample_counts_[s]);
+      medians[s] = median_abs_curvature(points[i], nb, points);
+    }
+  }, 256);
+  return lambda_from_medians(std::move(medians), params_.flow.lambda_auto_factor);
+}
+
+}  // namespace pointfair::tiles::detail

@@ -1,0 +1,362 @@
+// The run file and its commit record: created or resumed, shared by the ranks, committed.
+#include "tiled_run.hpp"
+
+namespace pointfair::tiles::detail {
+
+// Every parameter that changes the result, as one line: stored in the run and compared on
+// --resume.
+std::string parameters_key(const SmoothParams& p) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "k=" << p.neighbors.k << " eps=" << p.neighbors.eps << " eps_factor=" << p.neighbors.eps_auto_factor
+    << " steps=" << p.steps << " rebuild=" << p.rebuild_interval << " lambda_every_step=" << p.lambda_every_step
+    << " flow=" << static_cast<int>(p.flow.flow) << " cutoff=" << static_cast<int>(p.flow.cutoff)
+    << " lambda=" << p.flow.lambda << " lambda_factor=" << p.flow.lambda_auto_factor << " tau=" << p.flow.tau
+    << " constrain_normal=" << p.flow.constrain_normal << " feature_gated=" << p.flow.feature_gated
+    << " features=" << static_cast<int>(p.flow.features.mode) << " quotient=" << p.flow.features.quotient
+    << " feature_threshold=" << p.flow.features.threshold
+    << " weights=" << static_cast<int>(p.flow.weingarten.weights)
+    << " density_floor=" << p.flow.weingarten.density_floor
+    << " cutoff_origin=" << static_cast<int>(p.flow.cutoff_origin)
+    << " stop_lambda_ratio=" << p.stop_lambda_ratio
+    << " normal=" << static_cast<int>(p.flow.normal_estimator) << " robust_seed=" << p.flow.robust.seed_neighbors
+    << " robust_iterations=" << p.flow.robust.iterations << " robust_bound=" << p.flow.robust.inlier_bound;
+  // Named only when on, so that runs started before these options existed still resume.
+  if (p.stop_plateau != 0.0) s << " stop_plateau=" << p.stop_plateau;
+  if (p.shrink_compensation != 0.0) s << " shrink_compensation=" << p.shrink_compensation;
+  return s.str();
+}
+
+// Every parameter of the quadric finish, for the same line.
+std::string finish_key(const QuadricProjectionParams& q) {
+  std::ostringstream s;
+  s.precision(17);
+  s << "quadric_k=" << q.k << " quadric_normal_neighbors=" << q.normal_neighbors
+    << " quadric_angle=" << q.normal_angle << " quadric_iterations=" << q.iterations
+    << " quadric_bound=" << q.inlier_bound << " quadric_degree=" << q.degree << " quadric_passes=" << q.passes
+    << " quadric_curvature_reach=" << q.curvature_reach << " quadric_min_k=" << q.min_k
+    << " quadric_frame_seed=" << q.frame.seed_neighbors << " quadric_frame_iterations=" << q.frame.iterations
+    << " quadric_frame_bound=" << q.frame.inlier_bound;
+  return s.str();
+}
+
+std::string Run::key() const {
+  std::string k = parameters_key(params_);
+  // Named only when on, so that runs without it started before it existed still resume.
+  if (options_.quadric_finish) {
+    k += ' ';
+    k += finish_key(*options_.quadric_finish);
+  }
+  if (!options_.neighbor_reference.empty()) {
+    std::error_code ec;
+    const auto size = fs::file_size(options_.neighbor_reference, ec);
+    k += " neighbors_from=";
+    k += options_.neighbor_reference.filename().string();
+    k += ':';
+    k += std::to_string(ec ? 0 : size);
+  }
+  return k;
+}
+
+void Run::account(std::uint64_t working) {
+  max_working_ = std::max(max_working_, working);
+  const std::uint64_t total = persistent_bytes() + working;
+  peak_ = std::max(peak_, total);
+  if (total > options_.memory_budget)
+    throw BudgetError("the memory budget of " + size_text(options_.memory_budget, false) +
+                          " is too small for the tiles of " + input_path_.string() + " (the run needs " +
+                          size_text(total, true) +
+                          "): give a larger budget, or import the input again with a smaller budget (smaller tiles)",
+                      options_.memory_budget, total);
+}
+
+void Run::commit_state(const std::vector<std::int64_t>& record) {
+  // Everything written before this point (by every rank) reaches the file first; then rank 0
+  // overwrites the small state record in place (its storage was allocated when the file was
+  // created, so the write changes no metadata).
+  file().flush();
+  if (shared_) ranks_->barrier();
+  if (ranks_->rank() == 0) file().dataset(layout::run_state).write_rows(0, state_rows_, record.data());
+  file().flush();
+}
+
+void Run::share() {
+  // Rank 0 created or checked the file alone; now every rank opens it for parallel I/O.
+  if (ranks_->size() > 1) {
+    file_.reset();
+    ranks_->barrier();
+    file_.emplace(ranks_->open_shared(partial_name(output_)));
+    state_ = file().dataset(layout::run_state).read_all<std::int64_t>();
+    state_rows_ = state_.size();
+    state_.resize(kStateSize, 0);
+  }
+  shared_ = true;
+}
+
+void Run::release() {
+  // The end of the parallel part: rank 0 alone finishes the file (metadata changes).
+  if (ranks_->size() > 1) {
+    file_.reset();
+    ranks_->barrier();
+    if (ranks_->rank() == 0) file_.emplace(h5::File::open(partial_name(output_), true));
+  }
+  shared_ = false;
+}
+
+// Collective writes: every rank writes as many tiles as the rank with the most non-empty
+// tiles, the missing ones as empty selections (h5::Transfer::Collective).
+std::uint64_t Run::my_tiles() const {
+  std::uint64_t mine = 0;
+  for (std::size_t t = first_tile_; t < end_tile_; ++t) mine += tiles_.rows(t) > 0;
+  return mine;
+}
+
+std::uint64_t Run::tiles_to_write() const {
+  std::array<std::uint64_t, 1> most = {my_tiles()};
+  ranks_->max(most);
+  return most[0];
+}
+
+void Run::balance(bool with_halo) {
+  std::vector<std::uint64_t> costs(tiles_.size());
+  for (std::size_t t = 0; t < tiles_.size(); ++t) costs[t] = tiles_.rows(t);
+  // A run started before the halo counts were recorded balances by points alone.
+  if (with_halo && !tiles_.bounds.empty() && file().exists(layout::neighbor_halo_counts)) {
+    const auto halo = file().dataset(layout::neighbor_halo_counts).read_all<std::uint64_t>();
+    halo_points_ = 0;
+    for (std::size_t t = 0; t < costs.size() && t < halo.size(); ++t) {
+      costs[t] += halo[t];
+      halo_points_ += halo[t];
+    }
+  }
+  const std::vector<std::size_t> b = balance_ranges(costs, ranks_->size());
+  first_tile_ = b[static_cast<std::size_t>(ranks_->rank())];
+  end_tile_ = b[static_cast<std::size_t>(ranks_->rank()) + 1];
+}
+
+void Run::create(const fs::path& partial) {
+  const h5::File in = h5::File::open(input_path_, false);
+  file_.emplace(h5::File::create(partial));
+  h5::File& f = file();
+  f.create_group(layout::run);
+  h5::DatasetOptions early;
+  early.allocate_early = true;
+  state_rows_ = options_.quadric_finish ? std::size_t{kStateSize} : kLegacyStateSize;
+  f.create_dataset(layout::run_state, h5::Type::Int64, state_rows_, 0, early)
+      .write_rows(0, state_rows_, state_.data());
+  for (const char* name : {"pointfair_format", "source_name"})
+    f.set_attribute("/", name, in.string_attribute("/", name));
+  for (const char* name : {"format_version", "source_size_bytes", "point_count", "tile_count"})
+    f.set_attribute("/", name, in.int_attribute("/", name));
+  f.set_attribute("/", "tool_version", version());
+  f.copy_from(in, layout::points, layout::points);
+  f.copy_from(in, layout::tiles, layout::tiles);
+
+  f.set_attribute(layout::run, "parameters", key());
+  f.set_attribute(layout::run, "input_name", input_path_.filename().string());
+  f.set_attribute(layout::run, "input_size_bytes", static_cast<std::int64_t>(fs::file_size(input_path_)));
+  f.set_attribute(layout::run, "tool_version", version());
+  f.set_attribute(layout::run, "k", static_cast<std::int64_t>(params_.neighbors.k));
+  f.set_attribute(layout::run, "eps_requested", params_.neighbors.eps);
+  f.set_attribute(layout::run, "eps_factor", params_.neighbors.eps_auto_factor);
+  f.set_attribute(layout::run, "steps", static_cast<std::int64_t>(params_.steps));
+  f.set_attribute(layout::run, "tau", params_.flow.tau);
+  f.set_attribute(layout::run, "flow", params_.flow.flow == Flow::Isotropic ? "iso" : "aniso");
+  f.set_attribute(layout::run, "cutoff", params_.flow.cutoff == Cutoff::Sharp ? "sharp" : "continuous");
+  f.set_attribute(layout::run, "lambda_requested", params_.flow.lambda);
+  f.set_attribute(layout::run, "lambda_factor", params_.flow.lambda_auto_factor);
+  f.set_attribute(layout::run, "lambda_every_step", static_cast<std::int64_t>(params_.lambda_every_step));
+  f.set_attribute(layout::run, "constrain_normal", static_cast<std::int64_t>(params_.flow.constrain_normal));
+  f.set_attribute(layout::run, "feature_gated", static_cast<std::int64_t>(params_.flow.feature_gated));
+  f.set_attribute(layout::run, "features",
+                  params_.flow.features.mode == FeatureMode::None           ? "none"
+                  : params_.flow.features.mode == FeatureMode::EdgeQuotient ? "quotient"
+                                                                            : "maxcurv");
+  f.set_attribute(layout::run, "edge_quotient", params_.flow.features.quotient);
+  f.set_attribute(layout::run, "feature_threshold", params_.flow.features.threshold);
+  f.set_attribute(layout::run, "weights",
+                  params_.flow.weingarten.weights == AngularWeights::Paper ? "paper" : "uniform");
+  f.set_attribute(layout::run, "density_floor", params_.flow.weingarten.density_floor);
+  f.set_attribute(layout::run, "normal",
+                  params_.flow.normal_estimator == NormalEstimator::Robust ? "robust" : "pca");
+
+  f.create_dataset(layout::run_eps, h5::Type::Float64, 1, 0, early);
+  f.create_dataset(layout::run_step_log, h5::Type::Float64, static_cast<std::uint64_t>(std::max(1, params_.steps)),
+                   2, early);
+  h5::DatasetOptions rows = early;
+  rows.chunk_rows = std::min<std::uint64_t>(65536, std::max<std::uint64_t>(n_, 1));
+  f.create_group("/run/neighbors");
+  f.create_dataset(layout::neighbor_rows, h5::Type::UInt32, n_, static_cast<std::uint64_t>(k()), rows);
+  f.create_dataset(layout::neighbor_counts, h5::Type::UInt16, n_, 0, rows);
+  f.create_dataset(layout::neighbor_local, h5::Type::UInt32, n_, static_cast<std::uint64_t>(k()), rows);
+  f.create_dataset(kLocalOrder, h5::Type::UInt32, n_, 0, rows);
+  f.create_dataset(layout::neighbor_halo_counts, h5::Type::UInt64, std::max<std::uint64_t>(tiles_.size(), 1), 0,
+                   early);
+  f.create_dataset(positions_buffer(0), h5::Type::Float64, n_, 3, rows);
+  f.create_dataset(positions_buffer(1), h5::Type::Float64, n_, 3, rows);
+  if (!options_.neighbor_reference.empty()) {
+    f.create_dataset(kReferencePositions, h5::Type::Float64, n_, 3, rows);
+    f.set_attribute(layout::run, "neighbors_from", options_.neighbor_reference.filename().string());
+  }
+  if (options_.attributes) {
+    f.create_group(layout::run_attributes);
+    const std::string a = layout::run_attributes;
+    for (const char* name : {"normal", "d1", "d2"}) f.create_dataset(a + "/" + name, h5::Type::Float64, n_, 3, rows);
+    for (const char* name : {"k1", "k2", "mean_curvature", "laplacian_norm"})
+      f.create_dataset(a + "/" + name, h5::Type::Float64, n_, 0, rows);
+    f.create_dataset(a + "/feature_class", h5::Type::UInt8, n_, 0, rows);
+  }
+  if (options_.quadric_finish) {
+    f.create_dataset(kStopLambda, h5::Type::Float64, 1, 0, early);
+    const QuadricProjectionParams& q = *options_.quadric_finish;
+    f.set_attribute(layout::run, "quadric_k", static_cast<std::int64_t>(q.k));
+    f.set_attribute(layout::run, "quadric_angle", q.normal_angle);
+    f.set_attribute(layout::run, "quadric_degree", static_cast<std::int64_t>(q.degree));
+    f.set_attribute(layout::run, "quadric_passes", static_cast<std::int64_t>(q.passes));
+  }
+  state_.assign(kStateSize, 0);
+  state_[kSetupDone] = 1;
+  commit_state();
+}
+
+void Run::read_input_tables() {
+  {
+    const h5::File in = h5::File::open(input_path_, false);
+    tiles_ = read_tile_table(in);
+    n_ = point_count(in);
+  }
+  require(n_ < std::numeric_limits<Index>::max(), "a run holds fewer than 2^32-1 points");
+  for (std::size_t t = 0; t < tiles_.size(); ++t) max_tile_rows_ = std::max(max_tile_rows_, tiles_.rows(t));
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  global_bounds_ = {inf, inf, inf, -inf, -inf, -inf};
+  for (const Box& b : tiles_.bounds)
+    for (std::size_t c = 0; c < 3; ++c) {
+      global_bounds_[c] = std::min(global_bounds_[c], b[c]);
+      global_bounds_[c + 3] = std::max(global_bounds_[c + 3], b[c + 3]);
+    }
+}
+
+void Run::open_or_create() {
+  if (ranks_->rank() != 0) return;  // the others open the file in share()
+
+  const fs::path partial = partial_name(output_);
+  std::error_code ec;
+  if (fs::exists(partial, ec)) {
+    if (!options_.resume)
+      throw io::IoError(partial.string() +
+                        ": an interrupted run is in the way: pass --resume to continue it, or remove the file");
+    bool usable = false;
+    try {
+      file_.emplace(h5::File::open(partial, true));
+      if (file().exists(layout::run_state)) {
+        const auto st = file().dataset(layout::run_state).read_all<std::int64_t>();
+        if ((st.size() == kStateSize || st.size() == kLegacyStateSize) && st[kSetupDone] == 1) {
+          state_ = st;
+          state_rows_ = st.size();
+          state_.resize(kStateSize, 0);
+          usable = true;
+        }
+      }
+    } catch (const io::IoError&) {
+      usable = false;  // killed while it was being created: start again
+    }
+    if (usable) {
+      const std::string stored = file().string_attribute(layout::run, "parameters");
+      if (stored != key())
+        throw ParamError(partial.string() + " was started with other parameters (" + stored +
+                         "); run with those, or remove the file");
+      if (point_count(file()) != n_)
+        throw io::IoError(partial.string() + ": the interrupted run belongs to another input");
+      return;
+    }
+    file_.reset();
+    fs::remove(partial, ec);
+  }
+  create(partial);
+}
+
+OutOfCoreReport Run::run() {
+  params_.validate();
+  if (options_.quadric_finish) options_.quadric_finish->validate();
+  require(options_.memory_budget > 0, "the memory budget must be positive");
+  require(options_.temporal_block >= 1, "the temporal block must be at least 1 step");
+  require(options_.temporal_block == 1 || !(auto_lambda_on() && params_.lambda_every_step),
+          "temporal blocks (--temporal-block) need a fixed lambda or one measured once (--lambda-schedule "
+          "once): the automatic lambda of every step is measured on the whole cloud between steps");
+  io::require_distinct(input_path_, output_);
+  io::require_distinct(input_path_, partial_name(output_));
+  OutOfCoreReport report;
+  read_input_tables();
+  if (params_.neighbors.k == 0) {
+    // The automatic k, measured on the input's positions (as smooth() does), before the run
+    // file is created (its lists have k columns), also on --resume. Every rank reads the input.
+    file_.emplace(h5::File::open(input_path_, false));
+    balance(false);
+    params_.neighbors.k = resolve_k_tiled();
+    file_.reset();
+  }
+  report.k = k();
+  open_or_create();
+  share();
+  report.points = n_;
+  report.tiles = tiles_.size();
+  auto t0 = Clock::now();
+  balance(false);  // by points: the halos are not known yet
+  if (state_[kNeighborsDone] == 0) {
+    if (!options_.neighbor_reference.empty()) {
+      // The first lists from the reference's positions, with halos around its tiles' bounds.
+      load_reference();
+      neighbor_source_ = kReferencePositions;
+      measure_bounds();
+    }
+    build_neighbors(0);
+  }
+  else file().dataset(layout::run_eps).read_rows(0, 1, &eps_);
+  report.eps = eps_;
+  balance(true);
+  report.halo_points = halo_points_;
+  if (auto_lambda_on()) prepare_lambda_sample();
+  report.seconds_neighbors = seconds_since(t0);
+  report.steps = static_cast<int>(state_[kCompletedSteps]);
+  const bool steps_done = run_steps(report);
+  report.positions_held = holding_;
+  release_positions();  // the finish and the attributes need the room
+  release_scratch();
+  const bool finish_done = steps_done && run_finish(report);
+  if (!finish_done) {
+    report.neighbors_cached = caching_ && !ran_blocks_;
+    report.tiles_in_flight = static_cast<int>(std::max(slots_, most_in_flight_));
+    report.peak_accounted_bytes = peak_;
+    report.largest_tile_with_halo = largest_local_;
+    file_.reset();
+    return report;
+  }
+  // The threshold of the last step (or of the input when there are no steps).
+  double lambda = params_.flow.lambda;
+  report.steps = final_steps_;
+  if (final_steps_ > 0) {
+    double entry[2];
+    file().dataset(layout::run_step_log).read_rows(static_cast<std::uint64_t>(final_steps_ - 1), 1, entry);
+    // Stopped early: smooth() reports the threshold measured on the final positions.
+    lambda = final_steps_ < params_.steps ? stop_lambda_ : entry[0];
+    report.degenerate = static_cast<std::size_t>(entry[1]);
+  } else if (auto_lambda_on()) {
+    load_sample_positions(file().dataset(layout::positions));
+    lambda = sample_lambda();
+  }
+  report.lambda = lambda;
+  t0 = Clock::now();
+  const std::size_t attributes_degenerate = options_.attributes ? write_attributes(lambda) : 0;
+  report.seconds_attributes = seconds_since(t0);
+  release();
+  if (ranks_->rank() == 0) finish(attributes_degenerate, lambda);
+  ranks_->barrier();  // the run is in place when any rank returns
+  report.finished = true;
+  report.neighbors_cached = caching_ && !ran_blocks_;
+  report.tiles_in_flight = static_cast<int>(std::max(slots_, most_in_flight_));
+  report.peak_accounted_bytes = peak_;
+  report.largest_tile_with_halo = largest_local_;
+  return report;
+}
+
+}  // namespace pointfair::tiles::detail
