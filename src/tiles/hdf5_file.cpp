@@ -308,15 +308,21 @@ void File::start_writeback() const {
 }
 
 int File::descriptor() const {
-  if (parallel_) return -1;
+  if (descriptor_ != kNotAsked) return descriptor_;
+  descriptor_ = -1;
+  if (parallel_ || !handle_.valid()) return descriptor_;
   Handle access(H5Fget_access_plist(handle_.get()));
-  if (!access.valid() || H5Pget_driver(access.get()) != H5FD_SEC2) return -1;
+  if (!access.valid() || H5Pget_driver(access.get()) != H5FD_SEC2) return descriptor_;
   void* vfd = nullptr;
-  if (H5Fget_vfd_handle(handle_.get(), access.get(), &vfd) < 0 || vfd == nullptr) return -1;
-  return *static_cast<int*>(vfd);
+  if (H5Fget_vfd_handle(handle_.get(), access.get(), &vfd) >= 0 && vfd != nullptr)
+    descriptor_ = *static_cast<int*>(vfd);
+  return descriptor_;
 }
 
-void File::close() { handle_ = Handle(); }
+void File::close() {
+  handle_ = Handle();
+  descriptor_ = kNotAsked;
+}
 
 bool File::exists(std::string_view path) const {
   if (path == "/" || path.empty()) return true;

@@ -208,12 +208,15 @@ class File {
  private:
   File(std::filesystem::path name, Handle handle) : name_(std::move(name)), handle_(std::move(handle)) {}
   Handle open_object(std::string_view object) const;
-  /// The descriptor libhdf5's POSIX driver writes the file through; -1 for a parallel file.
+  /// The descriptor libhdf5's POSIX driver writes the file through (asked once); -1 for a
+  /// parallel file or another driver.
   int descriptor() const;
 
   std::filesystem::path name_;
   Handle handle_;
   bool parallel_ = false;
+  mutable int descriptor_ = kNotAsked;
+  static constexpr int kNotAsked = -2;
 };
 
 }  // namespace pointfair::tiles::h5
