@@ -7,6 +7,7 @@
 #include <random>
 
 #include "pointfair/version.hpp"
+#include "temporary_file.hpp"
 
 namespace pointfair::tiles {
 
@@ -16,15 +17,6 @@ namespace {
 
 // Row blocks for permuted writes: bounded scratch memory whatever the cloud size.
 constexpr std::uint64_t kBlockRows = 1u << 16;
-
-fs::path temporary_name(const fs::path& target) {
-  std::random_device rd;
-  std::string name = std::string(".") + target.filename().string();
-  name += std::string(".tmp-") + std::to_string(::getpid());
-  name += std::string("-") + std::to_string(rd());
-  return target.parent_path() / name;
-}
-
 
 // The bytes of a LAS source beyond its points and standard header fields, opaque: every
 // VLR and EVLR (e.g. the coordinate reference system), the Extra Bytes descriptors, the
@@ -215,6 +207,10 @@ void write_container(const fs::path& file, const io::PointTable& table, const Im
     std::error_code ec;
     fs::rename(temp, file, ec);
     if (ec) throw io::IoError(file.string() + ": cannot rename the finished file into place: " + ec.message());
+  } catch (const io::IoError& e) {
+    std::error_code ec;
+    fs::remove(temp, ec);
+    throw naming_target(e, file);
   } catch (...) {
     std::error_code ec;
     fs::remove(temp, ec);

@@ -16,6 +16,7 @@
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/version.hpp"
+#include "temporary_file.hpp"
 
 namespace pointfair::tiles {
 
@@ -277,14 +278,6 @@ class TileBuilder {
   std::vector<std::uint64_t>& tile_counts_;
   std::unordered_map<std::uint64_t, SplitCell>& splits_;
 };
-
-fs::path temporary_name(const fs::path& target, const char* kind) {
-  std::random_device rd;
-  std::string name = std::string(".") + target.filename().string();
-  name += std::string(kind) + std::to_string(::getpid());
-  name += std::string("-") + std::to_string(rd());
-  return target.parent_path() / name;
-}
 
 // Removes a file when it goes out of scope, unless released.
 struct RemoveOnExit {
@@ -792,7 +785,11 @@ StreamImportReport Import::run() {
   const bool first = ranks_->rank() == 0;
   const fs::path temp = ranks_->from_first(temporary_name(output_, ".tmp-").string());
   RemoveOnExit remove_temp{first ? temp : fs::path()};
-  write_file(temp);
+  try {
+    write_file(temp);
+  } catch (const io::IoError& e) {
+    throw naming_target(e, output_);
+  }
   if (first) {
     std::error_code ec;
     fs::rename(temp, output_, ec);

@@ -285,6 +285,27 @@ TEST_F(HostileEnvironment, FailedSyncDuringAnOutOfCoreRunKeepsAResumableFile) {
   }
 }
 
+// The same disk during an import (the container is written under a temporary name and
+// synced before it is renamed into place): the error names the container asked for, not the
+// temporary, and nothing is left behind.
+TEST_F(HostileEnvironment, FailedSyncDuringAnImportNamesTheContainerAndLeavesNothing) {
+  const fs::path in = write_cloud("in.ply", 3000);
+  const char* asan = std::getenv("ASAN_OPTIONS");
+  const std::string asan_options = std::string(asan != nullptr ? asan : "") + ":verify_asan_link_order=0";
+  for (const std::string deflate : {"0", "4"}) {
+    SCOPED_TRACE("deflate " + deflate);
+    const fs::path scan = dir_ / "scan.h5";
+    const Result r = run({"import", in.string(), scan.string(), "--tile-points", "500", "--deflate", deflate,
+                          "--quiet"},
+                         {},
+                         {std::string("LD_PRELOAD=") + POINTFAIR_FAILING_FSYNC, "ASAN_OPTIONS=" + asan_options,
+                          "POINTFAIR_TEST_FSYNC_FAILS_FROM=0"});
+    EXPECT_EQ(r.exit_code, 3) << r.err;
+    EXPECT_EQ(r.err, "error: " + scan.string() + ": write failed: Input/output error\n");
+    EXPECT_EQ(joined(other_files({"in.ply"})), "");
+  }
+}
+
 TEST_F(HostileEnvironment, SigintAndSigtermStopASmoothRunCleanly) {
   const fs::path in = write_cloud("in.ply", 20000);
   const std::string before = slurp(in);
