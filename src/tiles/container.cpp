@@ -1,10 +1,7 @@
 #include "pointfair/tiles/container.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
-#include <random>
 
 #include "pointfair/version.hpp"
 #include "temporary_file.hpp"
@@ -150,6 +147,7 @@ void write_container(const fs::path& file, const io::PointTable& table, const Im
   }
   const Tiling tiling = make_tiling(table.positions, options.tiling);
   const fs::path temp = temporary_name(file);
+  RemoveOnExit remove_temp{temp};
   try {
     h5::File f = h5::File::create(temp);
     f.set_attribute("/", "pointfair_format", layout::format_name);
@@ -208,14 +206,9 @@ void write_container(const fs::path& file, const io::PointTable& table, const Im
     fs::rename(temp, file, ec);
     if (ec) throw io::IoError(file.string() + ": cannot rename the finished file into place: " + ec.message());
   } catch (const io::IoError& e) {
-    std::error_code ec;
-    fs::remove(temp, ec);
     throw naming_target(e, file);
-  } catch (...) {
-    std::error_code ec;
-    fs::remove(temp, ec);
-    throw;
   }
+  remove_temp.path.clear();
 }
 
 std::uint64_t point_count(const h5::File& file) { return file.dataset(layout::positions).rows(); }

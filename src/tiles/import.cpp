@@ -2,15 +2,12 @@
 // it, then the scatter of every point into its tile's rows through one bounded buffer.
 #include "pointfair/tiles/import.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
 #include <optional>
-#include <random>
 #include <unordered_map>
 
 #include "pointfair/io/point_file.hpp"
@@ -277,15 +274,6 @@ class TileBuilder {
   std::vector<std::uint32_t>& tile_of_cell_;
   std::vector<std::uint64_t>& tile_counts_;
   std::unordered_map<std::uint64_t, SplitCell>& splits_;
-};
-
-// Removes a file when it goes out of scope, unless released.
-struct RemoveOnExit {
-  fs::path path;
-  ~RemoveOnExit() {
-    std::error_code ec;
-    if (!path.empty()) fs::remove(path, ec);
-  }
 };
 
 class Import {
