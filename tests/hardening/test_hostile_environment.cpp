@@ -98,6 +98,16 @@ class HostileEnvironment : public ::testing::Test {
     return wait_for(start(args, file_size_limit, environment));
   }
 
+  // The environment in which the child's fsync fails with EIO from its call `from` on
+  // (failing_fsync.cpp, preloaded).
+  static std::vector<std::string> failing_fsync(int from) {
+    // The sanitizers' runtime would refuse to start behind a preloaded library.
+    const char* asan = std::getenv("ASAN_OPTIONS");
+    return {std::string("LD_PRELOAD=") + POINTFAIR_FAILING_FSYNC,
+            "ASAN_OPTIONS=" + std::string(asan != nullptr ? asan : "") + ":verify_asan_link_order=0",
+            "POINTFAIR_TEST_FSYNC_FAILS_FROM=" + std::to_string(from)};
+  }
+
   // True once the child catches both SIGINT and SIGTERM (its handlers are installed), false
   // if it exited first. Reads the signal mask in /proc; no time limit.
   static bool wait_for_handlers(pid_t pid) {
@@ -256,15 +266,11 @@ TEST_F(HostileEnvironment, FailedSyncDuringAnOutOfCoreRunKeepsAResumableFile) {
   const fs::path whole = dir_ / "whole.h5", expected = dir_ / "expected.ply";
   ASSERT_EQ(run(smooth(whole)).exit_code, 0);
   ASSERT_EQ(run({"export", whole.string(), expected.string(), "--quiet"}).exit_code, 0);
-  // The sanitizers' runtime would refuse to start behind a preloaded library.
-  const char* asan = std::getenv("ASAN_OPTIONS");
-  const std::string asan_options = std::string(asan != nullptr ? asan : "") + ":verify_asan_link_order=0";
   for (const int failing_from : {0, 3, 8}) {
     SCOPED_TRACE("fsync fails from call " + std::to_string(failing_from));
     const fs::path out = dir_ / "run.h5", partial = dir_ / "run.h5.partial";
     const Result r = run(smooth(out), {},
-                         {std::string("LD_PRELOAD=") + POINTFAIR_FAILING_FSYNC, "ASAN_OPTIONS=" + asan_options,
-                          "POINTFAIR_TEST_FSYNC_FAILS_FROM=" + std::to_string(failing_from)});
+                         failing_fsync(failing_from));
     EXPECT_EQ(r.exit_code, 3) << r.err;
     EXPECT_EQ(r.err.find("error: "), 0u) << r.err;
     EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
@@ -290,16 +296,13 @@ TEST_F(HostileEnvironment, FailedSyncDuringAnOutOfCoreRunKeepsAResumableFile) {
 // temporary, and nothing is left behind.
 TEST_F(HostileEnvironment, FailedSyncDuringAnImportNamesTheContainerAndLeavesNothing) {
   const fs::path in = write_cloud("in.ply", 3000);
-  const char* asan = std::getenv("ASAN_OPTIONS");
-  const std::string asan_options = std::string(asan != nullptr ? asan : "") + ":verify_asan_link_order=0";
   for (const std::string deflate : {"0", "4"}) {
     SCOPED_TRACE("deflate " + deflate);
     const fs::path scan = dir_ / "scan.h5";
     const Result r = run({"import", in.string(), scan.string(), "--tile-points", "500", "--deflate", deflate,
                           "--quiet"},
                          {},
-                         {std::string("LD_PRELOAD=") + POINTFAIR_FAILING_FSYNC, "ASAN_OPTIONS=" + asan_options,
-                          "POINTFAIR_TEST_FSYNC_FAILS_FROM=0"});
+                         failing_fsync(0));
     EXPECT_EQ(r.exit_code, 3) << r.err;
     EXPECT_EQ(r.err, "error: " + scan.string() + ": write failed: Input/output error\n");
     EXPECT_EQ(joined(other_files({"in.ply"})), "");
