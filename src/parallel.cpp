@@ -44,7 +44,11 @@ ThreadSetting& setting() {
   return s;
 }
 
+std::atomic<const std::atomic<int>*> g_stop_flag{nullptr};
+
 }  // namespace
+
+void set_stop_flag(const std::atomic<int>* flag) { g_stop_flag.store(flag); }
 
 void set_thread_count(int threads) {
   if (threads < 0) throw std::invalid_argument("thread count must be >= 0");
@@ -65,10 +69,40 @@ int thread_count() {
   return s.threads > 0 ? s.threads : default_threads();
 }
 
+namespace {
+
+void run_parallel(std::size_t n, const std::function<void(std::size_t, std::size_t)>& body, std::size_t grain);
+
+}  // namespace
+
 void parallel_for(std::size_t n, const std::function<void(std::size_t, std::size_t)>& body,
                   std::size_t grain) {
   if (n == 0) return;
   grain = std::max<std::size_t>(grain, 1);
+  const std::atomic<int>* stop = g_stop_flag.load();
+  if (stop == nullptr) {
+    run_parallel(n, body, grain);
+    return;
+  }
+  // Each range checks the flag first; the results do not depend on how [0, n) is cut.
+  if (stop->load(std::memory_order_relaxed) != 0) throw Stopped();
+  std::atomic<bool> skipped{false};
+  const auto checked = [&](std::size_t begin, std::size_t end) {
+    for (std::size_t first = begin; first < end; first += kStopCheckRange) {
+      if (stop->load(std::memory_order_relaxed) != 0) {
+        skipped.store(true, std::memory_order_relaxed);
+        return;
+      }
+      body(first, std::min(end, first + kStopCheckRange));
+    }
+  };
+  run_parallel(n, checked, grain);
+  if (skipped.load()) throw Stopped();
+}
+
+namespace {
+
+void run_parallel(std::size_t n, const std::function<void(std::size_t, std::size_t)>& body, std::size_t grain) {
   const int threads = thread_count();
   if (threads == 1 || n <= grain) {
     body(0, n);
@@ -119,5 +153,7 @@ void parallel_for(std::size_t n, const std::function<void(std::size_t, std::size
   if (error) std::rethrow_exception(error);
 #endif
 }
+
+}  // namespace
 
 }  // namespace pointfair

@@ -5,10 +5,26 @@
 // Thread-safety: `body` is called concurrently for disjoint index ranges; it must not write
 // shared state except through the range it is given. Results therefore do not depend on the
 // number of threads, as long as each index's work depends only on its own inputs.
+#include <atomic>
 #include <cstddef>
 #include <functional>
+#include <stdexcept>
 
 namespace pointfair {
+
+/// Thrown by parallel_for once the stop flag (set_stop_flag) is set: the ranges not yet
+/// started were skipped, so what the loop writes is incomplete.
+class Stopped : public std::runtime_error {
+ public:
+  Stopped() : std::runtime_error("stopped") {}
+};
+
+/// A flag that, once non-zero, makes every parallel_for skip the ranges it has not started
+/// and throw Stopped: a long run ends within one range's work (a signal handler may set it;
+/// the flag must outlive its use). Null: none. Ranges are then at most kStopCheckRange
+/// indices long even on one thread.
+void set_stop_flag(const std::atomic<int>* flag);
+inline constexpr std::size_t kStopCheckRange = std::size_t{1} << 14;
 
 /// Number of worker threads used by parallel_for; 0 restores the default (all cores).
 void set_thread_count(int threads);

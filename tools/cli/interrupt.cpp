@@ -2,6 +2,8 @@
 
 #include <csignal>
 
+#include "pointfair/parallel.hpp"
+
 #include <atomic>
 #include <string>
 
@@ -40,6 +42,9 @@ void install_interrupt_handlers() {
 }
 
 int interrupt_signal() { return g_signal.load(); }
+
+StopOnInterrupt::StopOnInterrupt() { set_stop_flag(&g_signal); }
+StopOnInterrupt::~StopOnInterrupt() { set_stop_flag(nullptr); }
 
 void throw_if_interrupted(const std::string& consequence) {
   if (const int s = g_signal.load(); s != 0) throw Interrupted(s, consequence);

@@ -27,6 +27,17 @@ void install_interrupt_handlers();
 /// The first signal received (SIGINT or SIGTERM), or 0.
 int interrupt_signal();
 
+/// While one lives, the signal flag is the parallel facade's stop flag (set_stop_flag): a
+/// signal ends the running parallel loop within a fraction of a second with Stopped, which
+/// the command turns into Interrupted (rethrow_stopped_as_interrupted).
+class StopOnInterrupt {
+ public:
+  StopOnInterrupt();
+  ~StopOnInterrupt();
+  StopOnInterrupt(const StopOnInterrupt&) = delete;
+  StopOnInterrupt& operator=(const StopOnInterrupt&) = delete;
+};
+
 /// Throws Interrupted(signal, consequence) when a signal has arrived. `consequence` tells the
 /// user what was (not) kept, e.g. "no output written".
 void throw_if_interrupted(const std::string& consequence = "no output written");
