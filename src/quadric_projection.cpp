@@ -52,9 +52,11 @@ double reach_of(const Scratch& s, std::size_t count) {
 // s.weights (reweighted in place): its height at u = v = 0, its second derivatives
 // (h_uu, h_uv, h_vv) when `second` is not null, and the robust scale of its residuals (1.4826
 // times their median) when `scale` is not null; false when the points do not determine it.
+// With `at` (tangent coordinates u, v), also the fit's height there into *height_at.
 template <int Degree>
 bool fit_height(const QuadricProjectionParams& params, std::size_t count, Scratch& s, double& height,
-                double* second = nullptr, double* scale = nullptr) {
+                double* second = nullptr, double* scale = nullptr, const double* at = nullptr,
+                double* height_at = nullptr) {
   constexpr int terms = kTerms<Degree>;
   using Vec = Eigen::Matrix<double, terms, 1>;
   using Mat = Eigen::Matrix<double, terms, terms>;
@@ -93,6 +95,7 @@ bool fit_height(const QuadricProjectionParams& params, std::size_t count, Scratc
   }
   if (!fitted || !std::isfinite(c[0])) return false;
   height = c[0];
+  if (at != nullptr) *height_at = monomials<Degree>(at[0] * inv_reach, at[1] * inv_reach).dot(c);
   if (scale != nullptr) {
     for (std::size_t j = 0; j < count; ++j)
       s.plane_scratch[j] = std::abs(s.h[j] - monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach).dot(c));
@@ -128,7 +131,9 @@ void QuadricProjectionParams::validate() const {
 
 namespace {
 
-Vec3 project_one(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points,
+// p moved along the normal of its robust plane onto its fit; with an anchor, the anchor moved
+// along that normal onto the same fit instead (placed_on_quadric).
+Vec3 project_one(const Vec3& p, const Vec3* anchor, std::span<const Index> neighbors, std::span<const Vec3> points,
                  const QuadricProjectionParams& params, Scratch& s) {
   const std::size_t m = neighbors.size() + 1;  // p itself and its neighbours
   if (m < 6) return p;
@@ -173,11 +178,36 @@ Vec3 project_one(const Vec3& p, std::span<const Index> neighbors, std::span<cons
   // A fit that puts p farther off than the Tukey bound of its own residuals extrapolates (a
   // neighbourhood to one side, a hole's border): the move is clamped to that bound.
   double height = 0.0, scale = 0.0;
-  const bool fitted = params.degree == 3 ? fit_height<3>(params, count, s, height, nullptr, &scale)
-                                         : fit_height<2>(params, count, s, height, nullptr, &scale);
-  if (!fitted) return p;
-  const double bound = params.inlier_bound * std::max(scale, 1e-12 * reach_of(s, count));
-  return p + std::clamp(height, -bound, bound) * n;
+  if (anchor == nullptr) {
+    const bool fitted = params.degree == 3 ? fit_height<3>(params, count, s, height, nullptr, &scale)
+                                           : fit_height<2>(params, count, s, height, nullptr, &scale);
+    if (!fitted) return p;
+    const double bound = params.inlier_bound * std::max(scale, 1e-12 * reach_of(s, count));
+    return p + std::clamp(height, -bound, bound) * n;
+  }
+  // The anchor in p's frame: it moves along n only, onto the fit's height at its own tangent
+  // coordinates. The fit at p is clamped as above; the height at the anchor is shifted by the
+  // same amount. An anchor outside the fit's reach (which the fit would extrapolate to) goes
+  // onto the plane at the clamped height of p instead.
+  const Vec3 d = *anchor - p;
+  const double at[2] = {d.dot(t1), d.dot(t2)};
+  const double anchor_height = d.dot(n);
+  double height_at = 0.0;
+  const bool fitted = params.degree == 3 ? fit_height<3>(params, count, s, height, nullptr, &scale, at, &height_at)
+                                         : fit_height<2>(params, count, s, height, nullptr, &scale, at, &height_at);
+  if (!fitted) return *anchor - anchor_height * n;
+  const double reach = reach_of(s, count);
+  const double bound = params.inlier_bound * std::max(scale, 1e-12 * reach);
+  const double clamped = std::clamp(height, -bound, bound);
+  // The fit keeps only neighbours whose normals lie within normal_angle of p's: its surface
+  // rises from p's plane by at most tan(normal_angle) per unit along it. A fit that rises
+  // faster at the anchor extrapolates (a neighbourhood to one side): the height is bounded by
+  // that slope.
+  const double offset = std::sqrt(at[0] * at[0] + at[1] * at[1]);
+  const double slope = std::tan(params.normal_angle * std::numbers::pi / 180.0);
+  const double target = std::clamp(offset <= reach ? height_at + (clamped - height) : clamped,
+                                   clamped - slope * offset, clamped + slope * offset);
+  return *anchor + (target - anchor_height) * n;
 }
 
 }  // namespace
@@ -185,7 +215,13 @@ Vec3 project_one(const Vec3& p, std::span<const Index> neighbors, std::span<cons
 Vec3 project_to_quadric(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points,
                         const QuadricProjectionParams& params) {
   Scratch s;
-  return project_one(p, neighbors, points, params, s);
+  return project_one(p, nullptr, neighbors, points, params, s);
+}
+
+Vec3 placed_on_quadric(const Vec3& anchor, const Vec3& p, std::span<const Index> neighbors,
+                       std::span<const Vec3> points, const QuadricProjectionParams& params) {
+  Scratch s;
+  return project_one(p, &anchor, neighbors, points, params, s);
 }
 
 std::vector<Vec3> neighbourhood_normals(std::span<const Vec3> points, const Neighborhoods& neighborhoods,
@@ -220,13 +256,14 @@ void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> nor
   project_rows_to_quadrics(points, normals, neighborhoods, {}, params, out);
 }
 
-void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, const Neighborhoods& rows,
+void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, NeighborhoodsView rows,
                               std::span<const Index> queries, const QuadricProjectionParams& params,
-                              std::span<Vec3> out) {
+                              std::span<Vec3> out, std::span<const Vec3> anchors) {
   params.validate();
   const std::size_t n = rows.size();
-  require(normals.size() == points.size() && out.size() == n && (queries.empty() || queries.size() == n),
-          "project_rows_to_quadrics: a normal per point, a row and an output per query");
+  require(normals.size() == points.size() && out.size() == n && (queries.empty() || queries.size() == n) &&
+              (anchors.empty() || anchors.size() == n),
+          "project_rows_to_quadrics: a normal per point, a row, an output and an anchor per query");
   const double min_cos = std::cos(params.normal_angle * std::numbers::pi / 180.0);
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
     Scratch s;
@@ -239,9 +276,20 @@ void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3
         continue;
       }
       kept.clear();
-      for (const Index j : rows.of(r))
-        if (std::abs(ni.dot(normals[j])) >= min_cos) kept.push_back(j);
-      out[r] = project_one(points[i], kept, points, params, s);
+      // With an anchor: whether a neighbour among the nearest min_k lies on another face (its
+      // normal beyond the angle), i.e. the point is near a crease.
+      bool near_crease = false;
+      std::size_t seen = 0;
+      for (const Index j : rows.of(r)) {
+        const bool same_face = std::abs(ni.dot(normals[j])) >= min_cos;
+        if (same_face) kept.push_back(j);
+        if (seen++ < static_cast<std::size_t>(params.min_k) && !same_face) near_crease = true;
+      }
+      // Near a crease the anchor's position along the surface may lie past it, off both faces
+      // (the input's noise along the surface): there the point goes where the fit puts it, as
+      // in the free finish; elsewhere the anchor is placed along the normal.
+      const Vec3* anchor = anchors.empty() || near_crease ? nullptr : &anchors[r];
+      out[r] = project_one(points[i], anchor, kept, points, params, s);
     }
   }, 256);
 }
@@ -253,9 +301,13 @@ Neighborhoods quadric_neighborhoods(std::span<const Vec3> points, const QuadricP
   return build_neighborhoods(points, wide);
 }
 
-void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params) {
+void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params,
+                          std::span<const Vec3> anchors, const FinishProgress& progress) {
   params.validate();
   const std::size_t n = points.size();
+  require(anchors.empty() || anchors.size() == n,
+          "finish_with_quadrics: one anchor per point (" + std::to_string(anchors.size()) + " vs " +
+              std::to_string(n) + ")");
   constexpr double inf = std::numeric_limits<double>::infinity();
   // The k-long lists of every point at once would hold 4 k bytes a point (800 at k 200): the
   // normals come from lists as long as they read (the first entries of the k-long rows, as
@@ -273,8 +325,19 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
       queries.resize(count);
       std::iota(queries.begin(), queries.end(), static_cast<Index>(first));
       const Neighborhoods rows = build_neighborhoods(points, queries, params.k, inf);
-      project_rows_to_quadrics(points, normals, rows, queries, params,
-                               std::span<Vec3>(out).subspan(first, count));
+      const bool last = pass + 1 == params.passes;
+      // The block's rows in parts between progress calls (each part its own rows: the same
+      // bits as the whole block at once).
+      for (std::size_t part = 0; part < count; part += kQuadricProgressBlock) {
+        const std::size_t size = std::min(kQuadricProgressBlock, count - part);
+        const NeighborhoodsView part_rows = NeighborhoodsView(rows).rows(part, size);
+        project_rows_to_quadrics(
+            points, normals, part_rows, std::span<const Index>(queries).subspan(part, size), params,
+            std::span<Vec3>(out).subspan(first + part, size),
+            last && !anchors.empty() ? anchors.subspan(first + part, size) : std::span<const Vec3>{});
+        if (progress)
+          progress(static_cast<std::size_t>(pass) * n + first + part + size, n * static_cast<std::size_t>(params.passes));
+      }
     }
     points.swap(out);
   }

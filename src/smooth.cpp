@@ -30,6 +30,8 @@ SmoothParams paper_smooth_params(SmoothParams base) {
   base.stop_plateau = 0.0;
   base.shrink_compensation = 0.0;
   if (base.neighbors.k == 0) base.neighbors.k = kAutoKMin;
+  base.finish.reset();
+  base.placement = Placement::Free;
   return base;
 }
 
@@ -38,18 +40,43 @@ SmoothParams resolve_k(SmoothParams params, std::span<const Vec3> input) {
   return params;
 }
 
+std::string_view to_string(StopReason reason) {
+  switch (reason) {
+    case StopReason::LambdaRatio: return "lambda_ratio";
+    case StopReason::Plateau: return "plateau";
+    case StopReason::StepLimit: return "step_limit";
+  }
+  return "?";
+}
+
+std::string_view to_string(SmoothStage stage) {
+  switch (stage) {
+    case SmoothStage::Neighbors: return "neighbors";
+    case SmoothStage::Steps: return "steps";
+    case SmoothStage::Finish: return "finish";
+  }
+  return "?";
+}
+
 bool should_stop(const SmoothParams& params, std::span<const double> lambdas) {
-  if (lambdas.size() < 2) return false;
+  return stop_reason(params, lambdas).has_value();
+}
+
+std::optional<StopReason> stop_reason(const SmoothParams& params, std::span<const double> lambdas) {
+  if (lambdas.size() < 2) return std::nullopt;
   const std::size_t n = lambdas.size() - 1;
-  if (params.stop_lambda_ratio > 0.0 && lambdas[n] <= params.stop_lambda_ratio * lambdas[0]) return true;
+  if (params.stop_lambda_ratio > 0.0 && lambdas[n] <= params.stop_lambda_ratio * lambdas[0])
+    return StopReason::LambdaRatio;
   // A plateau counts once lambda has fallen to 0.7 of the input's: under heavy noise and
   // too small a k (fandisk at 1%, k 16) it also stalls early on, with most of the noise still
   // there. A lower gate (0.3 before the automatic k) kept that k-16 run going, but never let
   // a lightly noisy curved surface stop, whose lambda falls only to its own curvature: a
   // 20K-point torus at 0.1% noise ran all 150 steps and ended farther from the truth than its
   // input (RMS 1.009e-3 against 0.999e-3; 0.361e-3 after 11 steps with this gate).
-  return params.stop_plateau > 0.0 && n >= 8 && lambdas[n] <= 0.7 * lambdas[0] &&
-         lambdas[n] > (1.0 - params.stop_plateau) * lambdas[n - 4];
+  if (params.stop_plateau > 0.0 && n >= 8 && lambdas[n] <= 0.7 * lambdas[0] &&
+      lambdas[n] > (1.0 - params.stop_plateau) * lambdas[n - 4])
+    return StopReason::Plateau;
+  return std::nullopt;
 }
 
 bool measures_lambda_before(const SmoothParams& params, int step) {
@@ -70,14 +97,14 @@ void SmoothParams::validate() const {
           "stop plateau must be in [0, 1) (0 = off), got " + std::to_string(stop_plateau));
   require(shrink_compensation >= 0.0 && shrink_compensation <= 1.0,
           "shrink compensation must be in [0, 1] (0 = off), got " + std::to_string(shrink_compensation));
+  if (finish) finish->validate();
 }
 
-SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
-                    const SmoothOptions& options) {
-  requested.validate();
-  require_finite(positions, "smooth");
+namespace {
+
+// The flow of smooth(): neighbourhoods and steps, `positions` in place.
+SmoothReport run_flow(std::vector<Vec3>& positions, const SmoothParams& params, const SmoothOptions& options) {
   auto t0 = std::chrono::steady_clock::now();
-  const SmoothParams params = resolve_k(requested, positions);
   require(options.neighbor_reference.empty() ||
               options.neighbor_reference.size() == positions.size(),
           "the neighbour reference cloud must have as many points as the input (" +
@@ -140,9 +167,12 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
       report.lambda = measure_lambda();
       lambdas.push_back(report.lambda);
       // The automatic lambda gauges the noise: stop once it has fallen far enough.
-      if (params.flow.flow == Flow::Anisotropic && params.flow.lambda == 0.0 &&
-          should_stop(params, lambdas)) {
+      const std::optional<StopReason> reason =
+          params.flow.flow == Flow::Anisotropic && params.flow.lambda == 0.0 ? stop_reason(params, lambdas)
+                                                                             : std::nullopt;
+      if (reason) {
         report.stopped_early = true;
+        report.stop_reason = *reason;
         report.seconds_steps += seconds_since(t0);
         break;
       }
@@ -158,12 +188,35 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
     report.degenerate = stats.degenerate;
     report.seconds_steps += seconds_since(t0);
     ++report.steps;
-    if (options.progress) options.progress(step + 1, params.steps);
+    if (options.progress)
+      options.progress(SmoothStage::Steps, static_cast<std::size_t>(step + 1), static_cast<std::size_t>(params.steps));
   }
   next = std::vector<Vec3>{};
   updated = std::vector<Vec3>{};
   permute_neighborhoods_in_place(neighborhoods, row_of, order);
   report.neighborhoods = std::move(neighborhoods);
+  return report;
+}
+
+}  // namespace
+
+SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested, const SmoothOptions& options) {
+  requested.validate();
+  require_finite(positions, "smooth");
+  const SmoothParams params = resolve_k(requested, positions);
+  const bool place = params.finish && params.placement == Placement::AlongNormal;
+  // The input positions the placement moves along the normals (24 bytes a point).
+  const std::vector<Vec3> input = place ? positions : std::vector<Vec3>{};
+  SmoothReport report = run_flow(positions, params, options);
+  if (!params.finish) return report;
+  const auto t0 = std::chrono::steady_clock::now();
+  FinishProgress finish_progress;
+  if (options.progress)
+    finish_progress = [&](std::size_t done, std::size_t total) { options.progress(SmoothStage::Finish, done, total); };
+  finish_with_quadrics(positions, *params.finish, input, finish_progress);
+  report.finish_passes = params.finish->passes;
+  report.placed_along_normal = place;
+  report.seconds_finish = seconds_since(t0);
   return report;
 }
 

@@ -90,6 +90,7 @@ TEST(CutoffOrigin, PlaneOriginIsFreeOfTheNormalSign) {
 
 SmoothParams stop_params(double ratio, int steps) {
   SmoothParams p;
+  p.finish.reset();  // the flow alone
   p.neighbors.k = 16;
   p.steps = steps;
   p.stop_lambda_ratio = ratio;
@@ -143,6 +144,7 @@ TEST(StopLambdaRatio, RejectsRatiosOutsideZeroToOne) {
 // --paper: the paper's reading on top of the caller's other settings.
 TEST(PaperParams, ThePaperStepCountAndNoStopOrCompensationOnTopOfTheBase) {
   SmoothParams base;
+  base.finish.reset();  // the flow alone
   base.neighbors.k = 24;
   base.flow.lambda = 3.0;
   const SmoothParams p = paper_smooth_params(base);

@@ -150,6 +150,7 @@ TEST(AutomaticK, TheSameAsThroughAKdTree) {
 TEST(AutomaticK, SmoothUsesItUnlessKIsGivenOrThePaperIsAsked) {
   const std::vector<Vec3> input = noisy_plane(4000, 2.0, 13);
   SmoothParams params;
+  params.finish.reset();  // the flow alone
   params.steps = 2;
   std::vector<Vec3> automatic = input;
   const SmoothReport a = smooth(automatic, params);
@@ -167,6 +168,7 @@ TEST(AutomaticK, SmoothUsesItUnlessKIsGivenOrThePaperIsAsked) {
   EXPECT_EQ(SmoothParams{}.neighbors.k, 0);
   EXPECT_EQ(paper_smooth_params().neighbors.k, 16);
   SmoothParams eight;
+  eight.finish.reset();  // the flow alone
   eight.neighbors.k = 8;
   EXPECT_EQ(paper_smooth_params(eight).neighbors.k, 8);
 }

@@ -153,6 +153,7 @@ TEST_F(Parallel, SmoothIsThreadCountIndependent) {
   for (const auto& v : variants()) {
     // Two steps with a rebuild before the second: fixed and rebuilt neighbourhoods both run.
     SmoothParams params;
+    params.finish.reset();  // the flow alone
     params.flow = v.flow;
     params.steps = 2;
     params.rebuild_interval = 1;
@@ -187,6 +188,56 @@ TEST_F(Parallel, AttributesAreThreadCountIndependent) {
     EXPECT_TRUE(test::bitwise_equal(a.feature, b.feature));
     EXPECT_EQ(a.degenerate, b.degenerate);
   }
+}
+
+// The stop flag (set_stop_flag): once set, a loop skips the ranges it has not started and
+// throws Stopped; unset, it changes nothing.
+TEST_F(Parallel, StopFlagEndsALoopEarly) {
+  std::atomic<int> flag{0};
+  set_stop_flag(&flag);
+  struct Clear {
+    ~Clear() { set_stop_flag(nullptr); }
+  } clear;
+  for (const int threads : {1, 2}) {
+    set_thread_count(threads);
+    const std::size_t n = 40 * kStopCheckRange;
+    std::atomic<std::size_t> done{0};
+    parallel_for(n, [&](std::size_t b, std::size_t e) { done += e - b; });
+    EXPECT_EQ(done.load(), n) << "an unset flag stops nothing";
+    done = 0;
+    EXPECT_THROW(parallel_for(n, [&](std::size_t b, std::size_t e) {
+                   done += e - b;
+                   flag.store(1);  // the first range raises the flag: the rest is skipped
+                 }),
+                 Stopped);
+    EXPECT_LT(done.load(), n / 2) << threads << " threads";
+    EXPECT_THROW(parallel_for(1, [](std::size_t, std::size_t) {}), Stopped) << "a raised flag stops at once";
+    flag.store(0);
+  }
+}
+
+// smooth() stopped through the flag during a step leaves the last completed step.
+TEST_F(Parallel, StopFlagDuringSmoothLeavesTheLastCompletedStep) {
+  const std::vector<Vec3> input = cloud();
+  SmoothParams params;
+  params.finish.reset();  // the flow alone
+  params.steps = 6;
+  std::atomic<int> flag{0};
+  set_stop_flag(&flag);
+  struct Clear {
+    ~Clear() { set_stop_flag(nullptr); }
+  } clear;
+  SmoothOptions options;
+  options.progress = [&](SmoothStage, std::size_t done, std::size_t) {
+    if (done == 2) flag.store(1);  // the third step's first loop stops
+  };
+  std::vector<Vec3> stopped = input;
+  EXPECT_THROW(smooth(stopped, params, options), Stopped);
+  set_stop_flag(nullptr);
+  std::vector<Vec3> two = input;
+  params.steps = 2;
+  smooth(two, params);
+  EXPECT_TRUE(test::bitwise_equal(stopped, two));
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -257,6 +258,58 @@ TEST(QuadricProjection, RefusesBadParameters) {
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.passes = 0; })), ParamError);
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.curvature_reach = -1.0; })), ParamError);
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.min_k = 9; })), ParamError);
+}
+
+}  // namespace
+}  // namespace pointfair
+
+namespace pointfair {
+namespace {
+
+// placed_on_quadric: an anchor off a clean sphere goes onto the sphere along the fit's normal
+// at the flowed point, which is the sphere's radial direction there: the anchor's tangent
+// position is kept (it moves radially), whatever the flowed point's own position along the
+// surface.
+TEST(QuadricPlacement, AnchorMovesAlongTheNormalOntoTheFit) {
+  const std::vector<Vec3> sphere = sample_sphere(6000, 1.0, 11).points;
+  QuadricProjectionParams params;
+  params.k = 60;
+  params.curvature_reach = 0.0;
+  const Neighborhoods rows = quadric_neighborhoods(sphere, params);
+  double worst_radius = 0.0, worst_sideways = 0.0;
+  for (std::size_t i = 0; i < sphere.size(); i += 97) {
+    const Vec3& p = sphere[i];
+    // The anchor: off the surface by 0.02 and along it by 0.03 (about a spacing).
+    const Vec3 tangent = p.unitOrthogonal();
+    const Vec3 anchor = p * 1.02 + 0.03 * tangent;
+    const Vec3 placed = placed_on_quadric(anchor, p, rows.of(i), sphere, params);
+    worst_radius = std::max(worst_radius, std::abs(placed.norm() - 1.0));
+    // The move is along p's normal (its robust plane's: the radial direction at p within a
+    // few degrees), not toward p: the anchor keeps its own position along the surface.
+    const Vec3 move = placed - anchor;
+    worst_sideways = std::max(worst_sideways, (move - move.dot(p) * p).norm() / move.norm());
+  }
+  // The fit's height at the anchor is a cubic's: about the sphere's height within 1e-3.
+  EXPECT_LT(worst_radius, 1e-3);
+  EXPECT_LT(worst_sideways, std::sin(5.0 * std::numbers::pi / 180.0));
+}
+
+// finish_with_quadrics with anchors: the last pass places the anchors; with the anchors equal
+// to the points, the result equals the plain finish's up to rounding.
+TEST(QuadricPlacement, AnchorsAtThePointsGiveThePlainFinish) {
+  std::vector<Vec3> p = sample_sphere(3000, 1.0, 5).points;
+  add_noise(p, 0.01, 6);
+  QuadricProjectionParams params;
+  params.k = 50;
+  params.passes = 1;
+  std::vector<Vec3> plain = p, placed = p;
+  finish_with_quadrics(plain, params);
+  finish_with_quadrics(placed, params, p);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < p.size(); ++i) worst = std::max(worst, (plain[i] - placed[i]).norm());
+  // The clamp of the plain finish is applied the same way; the evaluation differs only in rounding.
+  EXPECT_LT(worst, 1e-12);
+  EXPECT_THROW(finish_with_quadrics(placed, params, std::vector<Vec3>(3)), ParamError);
 }
 
 }  // namespace

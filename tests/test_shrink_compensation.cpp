@@ -82,6 +82,7 @@ TEST(ShrinkCompensation, AlternatingUpdatesAreCappedAndTwoPointsConverge) {
   EXPECT_EQ(next[0], updated[0]);  // the cap: the flow's own update, no farther
   // And the whole compensated isotropic flow on them: their distance shrinks every step.
   SmoothParams params;
+  params.finish.reset();  // the flow alone
   params.flow.flow = Flow::Isotropic;
   params.flow.tau = 0.8;
   params.shrink_compensation = 1.0;
@@ -131,6 +132,7 @@ TEST(ShrinkCompensation, RowsSelectThePointsAndTheResultIsTheSameForAnyThreadCou
 
 TEST(ShrinkCompensation, RejectsBetaOutsideTheUnitInterval) {
   SmoothParams p;
+  p.finish.reset();  // the flow alone
   p.shrink_compensation = 1.5;
   EXPECT_THROW(p.validate(), ParamError);
   p.shrink_compensation = -0.1;
@@ -142,6 +144,7 @@ TEST(ShrinkCompensation, RejectsBetaOutsideTheUnitInterval) {
 
 SmoothParams sphere_params(double beta) {
   SmoothParams p;
+  p.finish.reset();  // the flow alone
   p.neighbors.k = 16;
   p.flow.flow = Flow::Isotropic;
   p.steps = 20;
@@ -169,6 +172,7 @@ TEST(ShrinkCompensation, KeepsTheSphereItsSizeWhileRemovingItsNoise) {
 
 TEST(StopPlateau, StopsOnceLambdaNoLongerFalls) {
   SmoothParams p;
+  p.finish.reset();  // the flow alone
   p.stop_lambda_ratio = 0.0;
   p.stop_plateau = 0.03;
   // Falling by 10% a step: never a plateau.
@@ -202,6 +206,7 @@ TEST(StopPlateau, StopsOnceLambdaNoLongerFalls) {
 TEST(StopPlateau, EndsACompensatedRunOnACurvedSurfaceEarly) {
   const std::vector<Vec3> input = noisy_sphere(3000, 0.03, 13);
   SmoothParams p;
+  p.finish.reset();  // the flow alone
   p.neighbors.k = 16;
   p.steps = 200;
   p.stop_lambda_ratio = 0.0;

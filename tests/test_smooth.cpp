@@ -25,6 +25,7 @@ namespace {
 
 SmoothParams small_params(int steps) {
   SmoothParams p;
+  p.finish.reset();  // the flow alone
   p.neighbors.k = 16;
   p.steps = steps;
   p.flow.tau = 0.5;
@@ -130,7 +131,10 @@ TEST(Smooth, ProgressIsReportedEveryStep) {
   std::vector<Vec3> points = test::noisy_cube(1000, 0.01, 5);
   std::vector<std::pair<int, int>> calls;
   SmoothOptions options;
-  options.progress = [&](int done, int total) { calls.emplace_back(done, total); };
+  options.progress = [&](SmoothStage stage, std::size_t done, std::size_t total) {
+    EXPECT_EQ(stage, SmoothStage::Steps);
+    calls.emplace_back(static_cast<int>(done), static_cast<int>(total));
+  };
   smooth(points, small_params(4), options);
   const std::vector<std::pair<int, int>> expected = {{1, 4}, {2, 4}, {3, 4}, {4, 4}};
   EXPECT_EQ(calls, expected);
@@ -195,6 +199,7 @@ TEST(Smooth, IsolatedPointIsCountedAndStays) {
 TEST(Smooth, ValidateRejectsBadParameters) {
   const auto bad = [](auto mutate) {
     SmoothParams p;
+    p.finish.reset();  // the flow alone
     mutate(p);
     return p;
   };

@@ -97,10 +97,11 @@ TEST(SpatialOrder, PermutedNeighbourhoodsNameTheSamePoints) {
 TEST(SpatialOrder, StoppedRunLeavesLastCompletedStep) {
   const auto input = noisy_cube(3000, 13);
   SmoothParams params;
+  params.finish.reset();  // the flow alone
   params.steps = 10;
   std::vector<Vec3> stopped = input;
   SmoothOptions options;
-  options.progress = [](int done, int) {
+  options.progress = [](SmoothStage, std::size_t done, std::size_t) {
     if (done == 3) throw std::runtime_error("stop");
   };
   EXPECT_THROW(smooth(stopped, params, options), std::runtime_error);
@@ -115,6 +116,7 @@ TEST(SpatialOrder, SmoothIsBitIdenticalToStepsInInputOrder) {
   const auto input = noisy_cube(4000, 9);
   for (const bool every_step : {false, true}) {
     SmoothParams params;
+    params.finish.reset();  // the flow alone
     params.neighbors.k = 16;  // the hand-driven steps below build their own lists
     params.steps = 6;
     params.lambda_every_step = every_step;

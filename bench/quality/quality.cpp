@@ -239,16 +239,28 @@ void model_case(Bench& bench, const std::string& model, const eval::TruthSpec& s
   }
 #endif
   const std::size_t peers_end = c.rows.size();
-  c.rows.push_back(bench.run_flow("anisotropic", "--no-quadric-finish", SmoothParams{}, noisy, truth, clean));
+  SmoothParams flow_only;
+  flow_only.finish.reset();
+  c.rows.push_back(bench.run_flow("anisotropic", "--no-quadric-finish", flow_only, noisy, truth, clean));
   {
-    // `pointfair smooth`'s defaults: the flow, then the quadric finish with its defaults.
+    // The defaults (smooth() with SmoothParams{}, `pointfair smooth`): the flow above, then the
+    // quadric finish placing the input points along the normals (the same bits as smooth()
+    // runs); and with --move free, the finish moving the flowed points.
+    const SmoothParams defaults;
     Row row = c.rows.back();
     row.setting = "defaults";
-    const auto t0 = std::chrono::steady_clock::now();
-    finish_with_quadrics(row.points, QuadricProjectionParams{});
+    Row free_row = row;
+    auto t0 = std::chrono::steady_clock::now();
+    finish_with_quadrics(row.points, *defaults.finish, noisy);
     row.seconds += seconds_since(t0);
     row.report = bench.score(truth, row.points, clean, noisy);
     c.rows.push_back(std::move(row));
+    free_row.setting = "--move free";
+    t0 = std::chrono::steady_clock::now();
+    finish_with_quadrics(free_row.points, *defaults.finish);
+    free_row.seconds += seconds_since(t0);
+    free_row.report = bench.score(truth, free_row.points, clean, noisy);
+    c.rows.push_back(std::move(free_row));
   }
 
   // Target of issue 3: normal error near edges above the clean samples' <= 0.75 x the best
@@ -278,8 +290,8 @@ void model_case(Bench& bench, const std::string& model, const eval::TruthSpec& s
   verdict << ((smooth_model || c.rows[0].report.normal_edges.count == 0)
                   ? "target (smooth model: RMS within 5% of the best peer)"
                   : "target (edge normal error above clean <= 0.75 x best peer, RMS <= best peer)")
-          << "; defaults: " << verdict_of(c.rows[peers_end + 1]) << "; the flow alone (--no-quadric-finish): "
-          << verdict_of(c.rows[peers_end]);
+          << "; defaults: " << verdict_of(c.rows[peers_end + 1]) << "; --move free: " << verdict_of(c.rows[peers_end + 2])
+          << "; the flow alone (--no-quadric-finish): " << verdict_of(c.rows[peers_end]);
   c.note = verdict.str();
   bench.summary << "| " << model << " | " << fmt("%.3g%%", noise_percent) << " | " << verdict.str() << " |\n";
   std::vector<const Row*> shown;

@@ -9,6 +9,7 @@
 // edges; the normal test keeps each fit on the point's own face. Measured on the sphere and
 // fandisk (README, Quality).
 #include <cstddef>
+#include <functional>
 #include <span>
 
 #include "pointfair/neighborhoods.hpp"
@@ -54,6 +55,13 @@ struct QuadricProjectionParams {
 Vec3 project_to_quadric(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points,
                         const QuadricProjectionParams& params);
 
+/// `anchor` moved along the normal of p's robust plane onto p's fit (project_to_quadric's),
+/// evaluated at the anchor's own tangent coordinates in p's frame: the fitted surface near p
+/// with the anchor's position along it. p is typically the flowed position of a point, the
+/// anchor its input position. Where the fit fails, the anchor goes onto p's plane.
+Vec3 placed_on_quadric(const Vec3& anchor, const Vec3& p, std::span<const Index> neighbors,
+                       std::span<const Vec3> points, const QuadricProjectionParams& params);
+
 /// The fit's neighbourhoods: each point's params.k nearest others, no radius bound.
 Neighborhoods quadric_neighborhoods(std::span<const Vec3> points, const QuadricProjectionParams& params);
 
@@ -71,17 +79,31 @@ void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> nor
 
 /// project_to_quadrics for some points: out[r] is the projection of point queries[r] (r
 /// itself when `queries` is empty) with the neighbours of row r of `rows` (indices into
-/// `points`, as are `queries`); `normals` holds every point's. Parallel.
-void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, const Neighborhoods& rows,
+/// `points`, as are `queries`); `normals` holds every point's. With `anchors` (one per row),
+/// out[r] is placed_on_quadric(anchors[r], ...) instead. Parallel.
+void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, NeighborhoodsView rows,
                               std::span<const Index> queries, const QuadricProjectionParams& params,
-                              std::span<Vec3> out);
+                              std::span<Vec3> out, std::span<const Vec3> anchors = {});
 
 /// Points whose k-long lists finish_with_quadrics holds at once.
 inline constexpr std::size_t kQuadricBlock = std::size_t{1} << 16;
+/// Points finish_with_quadrics projects between two calls of its progress (a fraction of a
+/// second at the defaults on one core).
+inline constexpr std::size_t kQuadricProgressBlock = std::size_t{1} << 12;
+
+/// Progress of finish_with_quadrics: (done, total).
+using FinishProgress = std::function<void(std::size_t, std::size_t)>;
 
 /// The whole finish on a cloud, params.passes times: quadric_neighborhoods,
 /// neighbourhood_normals and the projection of every point, in place (the lists built for
-/// blocks of kQuadricBlock points at a time, the same rows). Throws ParamError on bad parameters.
-void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params);
+/// blocks of kQuadricBlock points at a time, the same rows). With `anchors` (one per point,
+/// typically the input before the flow), the last pass places each anchor on its point's fit
+/// (placed_on_quadric) instead of projecting the point: the surface the flow and the finish
+/// found, with the anchors' positions along it. Throws ParamError on bad parameters.
+/// `progress` (may throw to stop; `points` then holds the last completed pass) is called
+/// after each block of at most kQuadricProgressBlock points with (points done over all
+/// passes, points x passes).
+void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params,
+                          std::span<const Vec3> anchors = {}, const FinishProgress& progress = {});
 
 }  // namespace pointfair

@@ -1,17 +1,34 @@
 #pragma once
-// The whole in-core evolution: neighbourhoods, then `steps` double-buffered Euler steps,
-// rebuilding the neighbourhoods every `rebuild_interval` steps if asked (Lange & Polthier
-// 2005, Section 5: neighbourhoods are built once from the noisy input and kept fixed unless
-// the user forces an update).
+// The whole in-core run, as `pointfair smooth` runs it: neighbourhoods, then `steps`
+// double-buffered Euler steps, rebuilding the neighbourhoods every `rebuild_interval` steps if
+// asked (Lange & Polthier 2005, Section 5: neighbourhoods are built once from the noisy input
+// and kept fixed unless the user forces an update); then, beyond the paper, the quadric finish
+// (quadric_projection.hpp) and the placement of every input point on the surface found.
 #include <cstddef>
 #include <functional>
+#include <optional>
 #include <span>
+#include <string_view>
 #include <vector>
 
 #include "pointfair/euler_step.hpp"
 #include "pointfair/neighborhoods.hpp"
+#include "pointfair/quadric_projection.hpp"
 
 namespace pointfair {
+
+/// Where each output point goes (beyond the paper).
+enum class Placement {
+  /// Its input position moved along the surface normal onto the surface that the flow and the
+  /// finish found (the finish's last pass evaluates each fit at the input point's tangent
+  /// coordinates: placed_on_quadric): the noise across the surface is removed, the position
+  /// along it is the input's, so that attributes stay on their spot and open borders stay
+  /// where they were. Needs the finish; without it the flow's positions are kept.
+  AlongNormal,
+  /// Where the flow (and the finish) left it: the paper's free flow, which also moves points
+  /// along the surface (towards denser regions, inward at open borders).
+  Free,
+};
 
 struct SmoothParams {
   /// neighbors.k = 0 (the default here): chosen from the input's noise over its sample spacing
@@ -72,14 +89,41 @@ struct SmoothParams {
   /// 3.07e-3, bunny (100K, 0.1%) 0.272e-3 vs 0.462e-3 (README, Quality). Out of core each
   /// tile then comes with the 2-ring closure of its lists (tiled_smooth.hpp).
   double shrink_compensation = 1.0;
+  /// The quadric finish after the flow (quadric_projection.hpp, beyond the paper); empty: the
+  /// flow's result as it is. Measured on the quality benchmark (docs/quality.md): lowers the
+  /// RMS distance in 14 of 15 cases.
+  std::optional<QuadricProjectionParams> finish = QuadricProjectionParams{};
+  /// Where the output points go (Placement); AlongNormal needs the finish and is ignored
+  /// without it.
+  Placement placement = Placement::AlongNormal;
 
   void validate() const;
 };
 
+/// Why the flow stopped.
+enum class StopReason {
+  /// SmoothParams::stop_lambda_ratio: lambda fell to that fraction of the input's.
+  LambdaRatio,
+  /// SmoothParams::stop_plateau: lambda stopped falling.
+  Plateau,
+  /// SmoothParams::steps were run.
+  StepLimit,
+};
+
+/// "lambda_ratio", "plateau", "step_limit".
+std::string_view to_string(StopReason reason);
+
+/// A stage of smooth(), for progress.
+enum class SmoothStage { Neighbors, Steps, Finish };
+
+/// "neighbors", "steps", "finish".
+std::string_view to_string(SmoothStage stage);
+
 /// The method as the paper states it, on top of `base` (its neighbourhoods, lambda and
 /// feature settings are kept): the cut-off's curvatures from the point itself, PCA planes,
-/// tau 0.5, 100 steps, no automatic stop, no shrinkage compensation and no automatic k (the
-/// paper sets k by hand: an automatic k becomes 16, a given one is kept). The CLI's --paper.
+/// tau 0.5, 100 steps, no automatic stop, no shrinkage compensation, no automatic k (the
+/// paper sets k by hand: an automatic k becomes 16, a given one is kept), no finish and the
+/// free flow's positions. The CLI's --paper.
 SmoothParams paper_smooth_params(SmoothParams base = {});
 
 /// `params` with neighbors.k resolved: automatic_k(input) when it is 0.
@@ -90,6 +134,8 @@ SmoothParams resolve_k(SmoothParams params, std::span<const Vec3> input);
 /// s = 0..n (lambdas[0] on the input). The caller checks that the stop applies at all
 /// (anisotropic flow, automatic lambda measured every step).
 bool should_stop(const SmoothParams& params, std::span<const double> lambdas);
+/// The same test, with which of the two stops applies (the lambda ratio first); empty: none.
+std::optional<StopReason> stop_reason(const SmoothParams& params, std::span<const double> lambdas);
 
 /// With an automatic lambda measured every step (SmoothParams::lambda_every_step): whether it
 /// is measured again before step `step` (> 0). Always for the anisotropic flow; the isotropic
@@ -101,8 +147,10 @@ struct SmoothOptions {
   /// Build the (first) neighbourhoods from these positions instead of the input; same point
   /// order and count as the input (the paper's "noise-free neighbourhoods", Figures 3, 6d).
   std::span<const Vec3> neighbor_reference;
-  /// Called after each step with (steps done, steps total).
-  std::function<void(int, int)> progress;
+  /// Called with (stage, done, total): after each step (steps done, the most steps) and after
+  /// each block of each finish pass (points done over all passes, points x passes). May throw
+  /// to stop the run (smooth() then leaves `positions` as documented there).
+  std::function<void(SmoothStage, std::size_t, std::size_t)> progress;
 };
 
 struct SmoothReport {
@@ -113,19 +161,25 @@ struct SmoothReport {
   double eps = 0.0;
   double lambda = 0.0;
   int rebuilds = 0;
-  /// True when SmoothParams::stop_lambda_ratio ended the run before `steps`.
+  /// True when an automatic stop ended the flow before `steps` (stop_reason says which).
   bool stopped_early = false;
+  StopReason stop_reason = StopReason::StepLimit;
+  /// Finish passes run, and whether the input points were placed along the normals.
+  int finish_passes = 0;
+  bool placed_along_normal = false;
   /// Points that could not move in the last step (degenerate neighbourhoods).
   std::size_t degenerate = 0;
   double seconds_neighbors = 0.0;
   double seconds_steps = 0.0;
+  double seconds_finish = 0.0;
   /// The neighbourhoods in force at the end (for curvature output).
   Neighborhoods neighborhoods;
 };
 
-/// Runs the flow on `positions` in place. Throws ParamError on bad parameters. If anything
-/// throws during the steps (including `progress`, which may throw to stop a run), `positions`
-/// holds the last completed step.
+/// Runs the flow, then the finish and the placement (SmoothParams::finish, placement), on
+/// `positions` in place. Throws ParamError on bad parameters. If anything throws during the
+/// steps (including `progress`, which may throw to stop a run), `positions` holds the last
+/// completed step; during the finish, the last completed step or finish pass.
 SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& params,
                     const SmoothOptions& options = {});
 

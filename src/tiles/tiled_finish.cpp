@@ -63,9 +63,11 @@ std::optional<FinishLists> Run::finish_lists(std::size_t t, double halo, const L
   return lists;
 }
 
-void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::vector<Vec3>& result) {
+void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::span<const Vec3> anchors,
+                      std::vector<Vec3>& result) {
   // One pass of finish_with_quadrics for tile t's points, from the positions in
-  // neighbor_source_: into `result`, in row order.
+  // neighbor_source_: into `result`, in row order; with `anchors` (the tile's input points,
+  // in row order), the anchors placed on the fits instead.
   for (double halo = knn_first_halo(t, q.k);; halo *= 2.0) {
     const LocalSet local = gather_local(t, halo);
     const std::optional<FinishLists> lists = finish_lists(t, halo, local, q);
@@ -77,7 +79,7 @@ void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::vect
     }
     const std::vector<Vec3> normals = neighbourhood_normals(local.positions, lists->normals, q);
     result.resize(local.queries.size());
-    project_rows_to_quadrics(local.positions, normals, lists->fits, local.queries, q, result);
+    project_rows_to_quadrics(local.positions, normals, lists->fits, local.queries, q, result, anchors);
     largest_local_ = std::max<std::uint64_t>(largest_local_, local.positions.size());
     account(searched + lists->bytes() + bytes(normals) + bytes(result));
     return;
@@ -88,8 +90,9 @@ bool Run::run_finish(OutOfCoreReport& report) {
   // The passes of finish_with_quadrics after the last step, each from the last one's
   // positions into the other buffer and committed like a step. False when stopped
   // (OutOfCoreOptions::stop_after_finish_passes).
-  if (!options_.quadric_finish) return true;
-  const QuadricProjectionParams& q = *options_.quadric_finish;
+  if (!params_.finish) return true;
+  const QuadricProjectionParams& q = *params_.finish;
+  const bool place = params_.placement == Placement::AlongNormal;
   int pass = static_cast<int>(state_[kFinishPasses]);
   report.finish_passes = pass;
   if (pass >= q.passes) return true;
@@ -98,7 +101,7 @@ bool Run::run_finish(OutOfCoreReport& report) {
   cache_.assign(tiles_.size(), {});
   cache_bytes_ = 0;
   const std::uint64_t writes = tiles_to_write();
-  std::vector<Vec3> result;
+  std::vector<Vec3> result, anchors;
   int passes_here = 0;
   for (; pass < q.passes; ++pass) {
     if (pass == 0 && ranks_->rank() == 0) file().dataset(kStopLambda).write_rows(0, 1, &stop_lambda_);
@@ -109,7 +112,14 @@ bool Run::run_finish(OutOfCoreReport& report) {
     for (std::size_t t = first_tile_; t < end_tile_; ++t) {
       const std::uint64_t rows = tiles_.rows(t);
       if (rows == 0) continue;
-      finish_tile(t, q, result);
+      // The last pass places the tile's input points (SmoothParams::placement).
+      if (place && pass + 1 == q.passes) {
+        anchors.resize(rows);
+        file().dataset(layout::positions).read_rows(tiles_.offsets[t], rows, anchors.data()->data());
+      } else {
+        anchors.clear();
+      }
+      finish_tile(t, q, anchors, result);
       target.write_rows(tiles_.offsets[t], rows, result.data()->data(), h5::Transfer::Collective);
       progress("finish", t + 1 - first_tile_, end_tile_ - first_tile_);
     }

@@ -43,9 +43,11 @@ std::string finish_key(const QuadricProjectionParams& q) {
 std::string Run::key() const {
   std::string k = parameters_key(params_);
   // Named only when on, so that runs without it started before it existed still resume.
-  if (options_.quadric_finish) {
+  if (params_.finish) {
     k += ' ';
-    k += finish_key(*options_.quadric_finish);
+    k += finish_key(*params_.finish);
+    // The input points placed along the normals in the last pass (SmoothParams::placement).
+    if (params_.placement == Placement::AlongNormal) k += " placement=along_normal";
   }
   if (!options_.neighbor_reference.empty()) {
     std::error_code ec;
@@ -141,7 +143,7 @@ void Run::create(const fs::path& partial) {
   f.create_group(layout::run);
   h5::DatasetOptions early;
   early.allocate_early = true;
-  state_rows_ = options_.quadric_finish ? std::size_t{kStateSize} : kLegacyStateSize;
+  state_rows_ = params_.finish ? std::size_t{kStateSize} : kLegacyStateSize;
   f.create_dataset(layout::run_state, h5::Type::Int64, state_rows_, 0, early)
       .write_rows(0, state_rows_, state_.data());
   for (const char* name : {"pointfair_format", "source_name"})
@@ -206,13 +208,15 @@ void Run::create(const fs::path& partial) {
       f.create_dataset(a + "/" + name, h5::Type::Float64, n_, 0, rows);
     f.create_dataset(a + "/feature_class", h5::Type::UInt8, n_, 0, rows);
   }
-  if (options_.quadric_finish) {
+  if (params_.finish) {
     f.create_dataset(kStopLambda, h5::Type::Float64, 1, 0, early);
-    const QuadricProjectionParams& q = *options_.quadric_finish;
+    const QuadricProjectionParams& q = *params_.finish;
     f.set_attribute(layout::run, "quadric_k", static_cast<std::int64_t>(q.k));
     f.set_attribute(layout::run, "quadric_angle", q.normal_angle);
     f.set_attribute(layout::run, "quadric_degree", static_cast<std::int64_t>(q.degree));
     f.set_attribute(layout::run, "quadric_passes", static_cast<std::int64_t>(q.passes));
+    f.set_attribute(layout::run, "placement",
+                    std::string(params_.placement == Placement::AlongNormal ? "along_normal" : "free"));
   }
   state_.assign(kStateSize, 0);
   state_[kSetupDone] = 1;
@@ -277,7 +281,6 @@ void Run::open_or_create() {
 
 OutOfCoreReport Run::run() {
   params_.validate();
-  if (options_.quadric_finish) options_.quadric_finish->validate();
   require(options_.memory_budget > 0, "the memory budget must be positive");
   require(options_.temporal_block >= 1, "the temporal block must be at least 1 step");
   require(options_.temporal_block == 1 || !(auto_lambda_on() && params_.lambda_every_step),

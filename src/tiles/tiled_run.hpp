@@ -59,7 +59,7 @@ inline double seconds_since(Clock::time_point t0) {
 // see Run::to_row_order); a step or temporal block writes into the other buffer.
 // kNeighborsStep: the step whose positions the stored neighbour lists were built from (0: the
 // input or the reference; a rebuild at step s overwrites them in place and records s).
-// kFinishPasses: quadric finish passes done (OutOfCoreOptions::quadric_finish); a pass writes
+// kFinishPasses: quadric finish passes done (SmoothParams::finish); a pass writes
 // the other buffer like a step, and kStepBuffer then names the pass's result. Only runs with
 // the finish have that slot: the others keep the record of kLegacyStateSize slots that runs
 // started before the finish existed have.
@@ -175,7 +175,8 @@ class Run {
   bool run_finish(OutOfCoreReport& report);
   std::optional<FinishLists> finish_lists(std::size_t t, double halo, const LocalSet& local,
                                           const QuadricProjectionParams& q) const;
-  void finish_tile(std::size_t t, const QuadricProjectionParams& q, std::vector<Vec3>& result);
+  void finish_tile(std::size_t t, const QuadricProjectionParams& q, std::span<const Vec3> anchors,
+                   std::vector<Vec3>& result);
   std::size_t write_attributes(double lambda);
   void finish(std::size_t attributes_degenerate, double lambda);
   void account(std::uint64_t working);

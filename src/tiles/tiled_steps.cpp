@@ -351,7 +351,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
     }
     if (stops_automatically()) {
       lambdas.push_back(lambda);
-      if (should_stop(params_, lambdas)) {
+      if (const std::optional<StopReason> reason = stop_reason(params_, lambdas)) {
+        report.stop_reason = *reason;
         report.seconds_steps += seconds_since(t0);
         finish_commit_timed();
         final_steps_ = step;
@@ -675,6 +676,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
   }
   finish_commit_timed();
   final_steps_ = params_.steps;
+  report.stop_reason = StopReason::StepLimit;
   return true;
 }
 

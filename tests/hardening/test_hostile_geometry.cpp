@@ -52,6 +52,7 @@ Outcome run(std::vector<Vec3> points, SmoothParams params) {
 
 SmoothParams few_steps(int steps = 5) {
   SmoothParams p;
+  p.finish.reset();  // the flow alone
   p.steps = steps;
   return p;
 }

@@ -162,4 +162,55 @@ inline std::vector<Vec3> noisy_cube(std::size_t count, double noise_fraction, st
   return points;
 }
 
+/// A scan-like scene: a ground square [-half, half]^2 at z = 0 sampled on a jittered grid of
+/// `spacing` (metres), with a box of footprint [-box_half, box_half]^2 and height `box_height`
+/// standing on it (its four walls and its roof sampled at the same spacing; the ground under
+/// it left out), every point moved by isotropic Gaussian noise of `sigma`. `clean` holds each
+/// point's position before the noise, `ground` whether it is a ground point.
+struct GroundWithBox {
+  std::vector<Vec3> points, clean;
+  std::vector<char> ground;
+};
+inline GroundWithBox ground_with_box(double half, double spacing, double box_half, double box_height, double sigma,
+                                     std::uint64_t seed) {
+  GroundWithBox scene;
+  Uniform u(seed);
+  const auto jitter = [&] { return u.in(-0.25, 0.25) * spacing; };
+  const auto add = [&](const Vec3& p, bool ground) {
+    scene.clean.push_back(p);
+    scene.ground.push_back(ground ? 1 : 0);
+  };
+  const int cells = static_cast<int>(std::lround(2.0 * half / spacing));
+  for (int i = 0; i < cells; ++i)
+    for (int j = 0; j < cells; ++j) {
+      const double x = -half + (i + 0.5) * spacing + jitter(), y = -half + (j + 0.5) * spacing + jitter();
+      if (std::abs(x) < box_half && std::abs(y) < box_half) continue;
+      add(Vec3(x, y, 0.0), true);
+    }
+  const int across = static_cast<int>(std::lround(2.0 * box_half / spacing));
+  const int up = static_cast<int>(std::lround(box_height / spacing));
+  for (int i = 0; i < across; ++i) {
+    for (int j = 0; j < across; ++j)
+      add(Vec3(-box_half + (i + 0.5) * spacing + jitter(), -box_half + (j + 0.5) * spacing + jitter(), box_height),
+          false);
+    for (int h = 0; h < up; ++h) {
+      const double a = -box_half + (i + 0.5) * spacing + jitter(), z = (h + 0.5) * box_height / up;
+      add(Vec3(a, -box_half, z), false);
+      add(Vec3(box_half, a, z), false);
+      add(Vec3(-a, box_half, z), false);
+      add(Vec3(-box_half, -a, z), false);
+    }
+  }
+  scene.points = scene.clean;
+  const auto gauss = [&] {  // Box-Muller: the same numbers on every platform
+    const double radius = std::sqrt(-2.0 * std::log(1.0 - u())), angle = 2.0 * std::numbers::pi * u();
+    return sigma * radius * std::cos(angle);
+  };
+  for (Vec3& p : scene.points) {
+    const double x = gauss(), y = gauss(), z = gauss();
+    p += Vec3(x, y, z);
+  }
+  return scene;
+}
+
 }  // namespace pointfair::test

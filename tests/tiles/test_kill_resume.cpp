@@ -102,6 +102,7 @@ TEST_F(KillResumeTest, StreamedStepsAsBlocksKilledAndResumedAreBitIdentical) {
   write_container(path("in.h5"), test::noisy_cube(20000, 25), test::tiled({.max_tile_points = 2500}));
   {  // the case this test is for
     SmoothParams params;
+    params.finish.reset();  // the flow alone
     params.steps = 2;
     params.shrink_compensation = 0.0;
     params.lambda_every_step = false;
@@ -131,6 +132,7 @@ TEST_F(KillResumeTest, CompensatedRunWithPlateauStopKilledAndResumedIsBitIdentic
   kill_and_resume({"--steps", "40", "--shrink-compensation", "1", "--stop-plateau", "0.1", "--stop-lambda-ratio",
                    "0", "--no-quadric-finish", "--threads", "2", "--quiet"});
   SmoothParams params;
+  params.finish.reset();  // the flow alone
   params.steps = 40;
   params.shrink_compensation = 1.0;
   params.stop_plateau = 0.1;

@@ -1,4 +1,4 @@
-// The quadric finish out of core (OutOfCoreOptions::quadric_finish): bit-identical to smooth()
+// The quadric finish out of core (SmoothParams::finish): bit-identical to smooth()
 // + finish_with_quadrics + compute_attributes in memory, for tiles of a handful of points,
 // empty tiles, one or two threads; stopped during or after the finish and resumed, the same
 // bits; a resume with other finish parameters is refused.
@@ -36,11 +36,8 @@ class TiledFinishTest : public test::TempDirTest {
     set_thread_count(0);
     TempDirTest::TearDown();
   }
-  OutOfCoreOptions with_finish(const QuadricProjectionParams& q) const {
-    OutOfCoreOptions o;
-    o.quadric_finish = q;
-    return o;
-  }
+  // The options of a run with a finish (which SmoothParams::finish carries).
+  OutOfCoreOptions with_finish(const QuadricProjectionParams&) const { return {}; }
 };
 
 TEST_F(TiledFinishTest, BitIdenticalToInCoreForAnyTilingAndThreads) {
@@ -62,7 +59,7 @@ TEST_F(TiledFinishTest, BitIdenticalToInCoreForAnyTilingAndThreads) {
       q.curvature_reach = 0.7;
       q.min_k = 12;
     }
-    const test::InCore ref = test::run_in_core(cloud, params, &q);
+    const test::InCore ref = test::run_in_core(cloud, test::finishing(params, q));
     // The finish moved the points: a run without it would not pass.
     ASSERT_NE(ref.positions, test::run_in_core(cloud, params).positions);
     for (const Case& c : cases) {
@@ -77,7 +74,7 @@ TEST_F(TiledFinishTest, BitIdenticalToInCoreForAnyTilingAndThreads) {
         SCOPED_TRACE(testing::Message() << c.name << ", passes " << passes << ", degree " << degree << ", "
                                         << threads << " threads");
         set_thread_count(threads);
-        const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, with_finish(q));
+        const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), with_finish(q));
         EXPECT_TRUE(r.finished);
         EXPECT_EQ(r.finish_passes, passes);
         EXPECT_EQ(r.lambda, ref.report.lambda);
@@ -108,10 +105,10 @@ TEST_F(TiledFinishTest, AfterRebuildsBlocksAndCompensationLikeInCore) {
     params.shrink_compensation = c.shrink_compensation;
     params.lambda_every_step = c.temporal_block == 1;
     const QuadricProjectionParams q = finish_params(1, 3);
-    const test::InCore ref = test::run_in_core(cloud, params, &q);
+    const test::InCore ref = test::run_in_core(cloud, test::finishing(params, q));
     OutOfCoreOptions options = with_finish(q);
     options.temporal_block = c.temporal_block;
-    EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, options).finished);
+    EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), options).finished);
     test::expect_identical(path("run.h5"), ref);
     std::filesystem::remove(path("run.h5"));
   }
@@ -125,9 +122,9 @@ TEST_F(TiledFinishTest, EmptyTilesAndTinyClouds) {
     for (const int steps : {0, 2}) {
       const SmoothParams params = few_steps(steps);
       const QuadricProjectionParams q = finish_params(2, 2);
-      const test::InCore ref = test::run_in_core(cloud, params, &q);
+      const test::InCore ref = test::run_in_core(cloud, test::finishing(params, q));
       write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 3}));
-      EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, with_finish(q)).finished);
+      EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), with_finish(q)).finished);
       test::expect_identical(path("run.h5"), ref);
       std::filesystem::remove(path("run.h5"));
     }
@@ -140,7 +137,7 @@ TEST_F(TiledFinishTest, StoppedAndResumedToTheSameBits) {
   const io::PointTable cloud = test::noisy_cube(1500, 43);
   const SmoothParams params = few_steps(3);
   const QuadricProjectionParams q = finish_params(2, 2);
-  const test::InCore ref = test::run_in_core(cloud, params, &q);
+  const test::InCore ref = test::run_in_core(cloud, test::finishing(params, q));
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 200}, 256));
   set_thread_count(2);
   for (const int stop_steps : {1, -1}) {
@@ -150,7 +147,7 @@ TEST_F(TiledFinishTest, StoppedAndResumedToTheSameBits) {
       OutOfCoreOptions stop = with_finish(q);
       stop.stop_after_steps = stop_steps;
       stop.stop_after_finish_passes = stop_passes;
-      const OutOfCoreReport first = smooth_out_of_core(path("in.h5"), path("run.h5"), params, stop);
+      const OutOfCoreReport first = smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), stop);
       EXPECT_FALSE(first.finished);
       EXPECT_FALSE(std::filesystem::exists(path("run.h5")));
       if (stop_steps < 0) {
@@ -159,10 +156,10 @@ TEST_F(TiledFinishTest, StoppedAndResumedToTheSameBits) {
       OutOfCoreOptions resume = with_finish(q);
       resume.resume = true;
       if (stop_steps >= 0) resume.stop_after_finish_passes = stop_passes;
-      OutOfCoreReport second = smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume);
+      OutOfCoreReport second = smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), resume);
       if (!second.finished) {
         resume.stop_after_finish_passes = -1;
-        second = smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume);
+        second = smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), resume);
       }
       EXPECT_TRUE(second.finished);
       EXPECT_EQ(second.finish_passes, 2);
@@ -180,7 +177,7 @@ TEST_F(TiledFinishTest, InterruptedInsideAPassResumesToTheSameBits) {
   const io::PointTable cloud = test::noisy_cube(1500, 47);
   const SmoothParams params = few_steps(2);
   const QuadricProjectionParams q = finish_params(2, 2);
-  const test::InCore ref = test::run_in_core(cloud, params, &q);
+  const test::InCore ref = test::run_in_core(cloud, test::finishing(params, q));
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 200}, 256));
   const TileTable tiles = read_tile_table(h5::File::open(path("in.h5"), false));
   std::size_t filled = 0;
@@ -194,11 +191,11 @@ TEST_F(TiledFinishTest, InterruptedInsideAPassResumesToTheSameBits) {
     first.progress = [&](const std::string& phase, std::uint64_t, std::uint64_t) {
       if (phase == "finish" && ++finished_tiles == interrupt_at) throw std::runtime_error("interrupted");
     };
-    EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), params, first), std::runtime_error);
+    EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), first), std::runtime_error);
     ASSERT_TRUE(std::filesystem::exists(partial_name(path("run.h5"))));
     OutOfCoreOptions resume = with_finish(q);
     resume.resume = true;
-    const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume);
+    const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), resume);
     EXPECT_TRUE(r.finished);
     EXPECT_EQ(r.finish_passes, 2);
     test::expect_identical(path("run.h5"), ref);
@@ -213,15 +210,15 @@ TEST_F(TiledFinishTest, AutomaticStopThenFinishResumesWithTheStopsLambda) {
   SmoothParams params;  // defaults: stop when lambda falls to stop_lambda_ratio of the input's
   params.steps = 60;
   const QuadricProjectionParams q = finish_params(2, 2);
-  const test::InCore ref = test::run_in_core(cloud, params, &q);
+  const test::InCore ref = test::run_in_core(cloud, test::finishing(params, q));
   ASSERT_TRUE(ref.report.stopped_early);
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 500}));
   OutOfCoreOptions stop = with_finish(q);
   stop.stop_after_finish_passes = 1;
-  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, stop).finished);
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), stop).finished);
   OutOfCoreOptions resume = with_finish(q);
   resume.resume = true;
-  const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume);
+  const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), resume);
   EXPECT_TRUE(r.finished);
   EXPECT_EQ(r.steps, ref.report.steps);
   EXPECT_EQ(r.lambda, ref.report.lambda);
@@ -235,7 +232,7 @@ TEST_F(TiledFinishTest, ResumeWithOtherFinishParametersIsRefused) {
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 200}));
   OutOfCoreOptions stop = with_finish(q);
   stop.stop_after_finish_passes = 1;
-  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, stop).finished);
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), stop).finished);
   OutOfCoreOptions resume;
   resume.resume = true;
   EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume), ParamError) << "no finish";
@@ -249,13 +246,15 @@ TEST_F(TiledFinishTest, ResumeWithOtherFinishParametersIsRefused) {
   other_min_k.min_k = 20;
   for (const QuadricProjectionParams& other :
        {other_k, other_passes, other_degree, other_angle, other_reach, other_min_k}) {
-    resume.quadric_finish = other;
-    EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume), ParamError);
+    EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, other), resume), ParamError);
   }
+  SmoothParams free_placement = test::finishing(params, q);
+  free_placement.placement = Placement::Free;
+  EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), free_placement, resume), ParamError)
+      << "other placement";
   // The run itself still resumes with its own.
-  resume.quadric_finish = q;
-  EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume).finished);
-  test::expect_identical(path("run.h5"), test::run_in_core(cloud, params, &q));
+  EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), resume).finished);
+  test::expect_identical(path("run.h5"), test::run_in_core(cloud, test::finishing(params, q)));
 }
 
 }  // namespace

@@ -386,6 +386,7 @@ TEST_F(TiledSmoothTest, PositionsHeldInMemoryGiveTheSameBits) {
 TEST_F(TiledSmoothTest, StepsWrittenInListOrderStopAndResumeToTheSameBits) {
   const io::PointTable cloud = test::noisy_cube(3000, 25, 0.02);
   SmoothParams params;
+  params.finish.reset();  // the flow alone
   params.steps = 60;
   params.shrink_compensation = 0.0;
   const InCore ref = run_in_core(cloud, params);
@@ -696,6 +697,7 @@ TEST_F(TiledSmoothTest, ShrinkCompensationLikeInCore) {
 TEST_F(TiledSmoothTest, PlateauStopMatchesInCore) {
   const io::PointTable cloud = test::noisy_cube(4000, 25);
   SmoothParams params;
+  params.finish.reset();  // the flow alone
   params.steps = 60;
   params.stop_lambda_ratio = 0.0;
   params.stop_plateau = kPlateau;

@@ -55,18 +55,23 @@ struct InCore {
 /// The flow's parameters with `steps` steps, the rest their defaults.
 inline SmoothParams few_steps(int steps = 3) {
   SmoothParams p;
+  p.finish.reset();  // the flow alone
   p.steps = steps;
   return p;
 }
 
-/// With `finish`, as the command runs it: the flow, the quadric finish on its result, and the
-/// attributes of the finished positions over the flow's last lists with its last lambda.
-inline InCore run_in_core(const io::PointTable& table, const SmoothParams& params,
-                          const QuadricProjectionParams* finish = nullptr) {
+/// `params` with the finish `q` (and their placement).
+inline SmoothParams finishing(SmoothParams params, const QuadricProjectionParams& q) {
+  params.finish = q;
+  return params;
+}
+
+/// As the command runs it: smooth() (the flow and, with params.finish, the finish and the
+/// placement), and the attributes of the result over the flow's last lists with its last lambda.
+inline InCore run_in_core(const io::PointTable& table, const SmoothParams& params) {
   InCore r;
   r.positions = table.positions;
   r.report = smooth(r.positions, params);
-  if (finish != nullptr) finish_with_quadrics(r.positions, *finish);
   r.attributes = compute_attributes(r.positions, r.report.neighborhoods, params.flow, r.report.lambda);
   return r;
 }

@@ -142,9 +142,9 @@ int run_demo(const Args& args) {
     Progress progress("demo: " + to_string(flow) + " step", !output.quiet);
     SmoothOptions options;
     // Files written before the signal are complete; summary.json is written last.
-    options.progress = [&](int done, int total) {
+    options.progress = [&](SmoothStage stage, std::size_t done, std::size_t total) {
       throw_if_interrupted("summary.json not written");
-      progress.update(done, total);
+      if (stage == SmoothStage::Steps) progress.update(static_cast<long long>(done), static_cast<long long>(total));
     };
     const auto t0 = std::chrono::steady_clock::now();
     const SmoothReport report = smooth(positions, run, options);

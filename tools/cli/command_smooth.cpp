@@ -33,9 +33,8 @@ int run_smooth(const Args& args) {
   parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
   parser.positional("OUT", "Output point file; written under a temporary name and renamed when complete.",
                     &output_path);
-  FinishOptions finish;
-  add_method_options(parser, params, &finish);
-  add_finish_options(parser, finish);
+  add_method_options(parser, params);
+  add_finish_options(parser, params);
   parser.value("neighbors-from", "REF",
                "Build the neighbourhoods from this cloud (same points, same order) instead of the "
                "input: the paper's noise-free neighbourhoods.",
@@ -43,7 +42,6 @@ int run_smooth(const Args& args) {
   add_output_options(parser, output, true);
   if (!parser.parse(args)) return 0;
   params.validate();
-  if (finish.quadric) finish.quadric_params.validate();
   set_thread_count(output.threads);
 
   const auto t_start = std::chrono::steady_clock::now();
@@ -58,27 +56,45 @@ int run_smooth(const Args& args) {
   const double seconds_read = seconds_since(t_start);
   const std::vector<Vec3> before = table.positions;
 
-  Progress progress("smooth: step", !output.quiet);
+  // One progress line per stage; the steps' line says how the automatic stop works, since
+  // their count is only the most steps run.
+  const bool auto_stop = params.flow.flow == Flow::Anisotropic && params.flow.lambda == 0.0 &&
+                         params.lambda_every_step && (params.stop_lambda_ratio > 0.0 || params.stop_plateau > 0.0);
+  std::string step_label = "smooth: step";
+  if (auto_stop)
+    step_label = "smooth: step (stops once the noise measure lambda falls to " + format_fraction(params.stop_lambda_ratio) +
+                 " of its start or levels off)";
+  if (!output.quiet) std::fprintf(stderr, "smooth: %zu points read; neighbourhoods...\n", table.size());
+  Progress steps_progress(step_label, !output.quiet);
+  Progress finish_progress("smooth: finish (quadric fits, points x passes)", !output.quiet);
   SmoothOptions options;
   options.neighbor_reference = reference_positions;
-  options.progress = [&](int done, int total) {
+  options.progress = [&](SmoothStage stage, std::size_t done, std::size_t total) {
     throw_if_interrupted();  // unwinds out of smooth(): nothing has been written yet
-    progress.update(done, total);
+    if (stage == SmoothStage::Steps) {
+      steps_progress.update(static_cast<long long>(done), static_cast<long long>(total));
+    } else if (stage == SmoothStage::Finish) {
+      steps_progress.finish();
+      finish_progress.update(static_cast<long long>(done), static_cast<long long>(total));
+    }
   };
   throw_if_interrupted();
-  SmoothReport report = smooth(table.positions, params, options);
-  progress.finish();
-  auto t0 = std::chrono::steady_clock::now();
-  if (finish.quadric) {
+  SmoothReport report;
+  try {
+    const StopOnInterrupt stop_on_interrupt;  // a signal ends the current step or fit within a second
+    report = smooth(table.positions, params, options);
+  } catch (const Stopped&) {
     throw_if_interrupted();
-    finish_with_quadrics(table.positions, finish.quadric_params);
+    throw;
   }
-  const double seconds_finish = seconds_since(t0);
+  steps_progress.finish();
+  finish_progress.finish();
 
-  t0 = std::chrono::steady_clock::now();
+  auto t0 = std::chrono::steady_clock::now();
   const bool need_attributes = output.attributes || output.colour_by != ColourBy::None;
   std::size_t degenerate_final = report.degenerate;
   if (need_attributes) {
+    throw_if_interrupted();
     const PointAttributes attributes =
         compute_attributes(table.positions, report.neighborhoods, params.flow, report.lambda);
     degenerate_final = attributes.degenerate;
@@ -86,6 +102,7 @@ int run_smooth(const Args& args) {
   }
   const double seconds_attributes = seconds_since(t0);
   throw_if_interrupted();
+  if (!output.quiet) std::fprintf(stderr, "smooth: writing %s\n", output_path.c_str());
   t0 = std::chrono::steady_clock::now();
   write_output(output_path, table, output, input);
   const double seconds_write = seconds_since(t0);
@@ -108,19 +125,17 @@ int run_smooth(const Args& args) {
   if (output.json) {
     JsonObject seconds;
     seconds.add("read", seconds_read).add("neighbors", report.seconds_neighbors)
-        .add("steps", report.seconds_steps).add("finish", seconds_finish).add("attributes", seconds_attributes)
+        .add("steps", report.seconds_steps).add("finish", report.seconds_finish).add("attributes", seconds_attributes)
         .add("write", seconds_write).add("total", seconds_total);
     JsonObject j;
     j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
     j.add("points", table.size()).add("steps", report.steps).add("rebuilds", report.rebuilds);
+    j.add("stop_reason", std::string(to_string(report.stop_reason)));
     j.add("threads", thread_count());
     j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
     j.add("neighbors_from", reference);
-    JsonObject q;
-    q.add("enabled", finish.quadric).add("k", finish.quadric_params.k)
-        .add("angle_degrees", finish.quadric_params.normal_angle)
-        .add("degree", finish.quadric_params.degree).add("passes", finish.quadric_params.passes);
-    j.add("quadric_finish", q);
+    j.add("quadric_finish", finish_json(params));
+    j.add("placement", report.placed_along_normal ? "normal" : "free");
     j.add("seconds", seconds).add("point_steps_per_second", rate);
     j.add("displacement", to_json(moved)).add("degenerate_points", degenerate_final);
     std::cout << j.str() << std::endl;

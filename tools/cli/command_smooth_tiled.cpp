@@ -69,9 +69,8 @@ int run_smooth_out_of_core(const Args& args) {
                         "result is bit-identical to the in-core run.");
   parser.positional("IN", "Input container (.h5) or point file (.ply, .xyz, ...).", &input);
   parser.positional("OUT", "Output container (.h5) or point file.", &output_path);
-  FinishOptions finish;
-  add_method_options(parser, params, &finish);
-  add_finish_options(parser, finish);
+  add_method_options(parser, params);
+  add_finish_options(parser, params);
   parser.value("memory-budget", "SIZE",
                "Working memory of the run (e.g. 256M, 2G). A point-file input that fits runs in "
                "core. Default 256M.",
@@ -102,10 +101,6 @@ int run_smooth_out_of_core(const Args& args) {
   add_output_options(parser, output, true);
   if (!parser.parse(args)) return 0;
   params.validate();
-  if (finish.quadric) {
-    finish.quadric_params.validate();
-    ooc.quadric_finish = finish.quadric_params;
-  }
   set_thread_count(output.threads);
   const auto t_start = std::chrono::steady_clock::now();
 
@@ -120,9 +115,9 @@ int run_smooth_out_of_core(const Args& args) {
     // In core the quadric finish adds its normals and short lists and one block of its
     // k-long lists; out of core, tiles hold k-long lists for every point.
     const int flow_k = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
-    const int k_bound = finish.quadric ? std::max(flow_k, finish.quadric_params.k) : flow_k;
+    const int k_bound = params.finish ? std::max(flow_k, params.finish->k) : flow_k;
     const std::uint64_t in_core = in_core_bytes(points, flow_k, compensated) +
-                                  (finish.quadric ? in_core_finish_bytes(points, finish.quadric_params) : 0);
+                                  (params.finish ? in_core_finish_bytes(points, *params.finish) : 0);
     if (!container_out && in_core <= ooc.memory_budget && !ooc.resume) {
       return run_smooth(without_budget(args));
     }
@@ -144,7 +139,9 @@ int run_smooth_out_of_core(const Args& args) {
   (void)budget_given;
   const fs::path run_output = container_out ? fs::path(output_path) : fs::path(output_path + ".run.h5");
 
-  Progress progress("smooth (out of core):", !output.quiet);
+  Progress progress("smooth (out of core): step", !output.quiet);
+  Progress finish_progress("smooth (out of core): finish, tiles of this pass", !output.quiet);
+  Progress attributes_progress("smooth (out of core): attributes, tiles", !output.quiet);
   ooc.attributes = true;
   // A signal stops the run after the phase's current tile or step: what is committed stays in
   // the partial file, and --resume continues from it (as after a kill).
@@ -153,7 +150,16 @@ int run_smooth_out_of_core(const Args& args) {
       ": run the same command with --resume to continue";
   ooc.progress = [&](const std::string& phase, std::uint64_t done, std::uint64_t total) {
     throw_if_interrupted(resume_hint);
-    if (phase == "step") progress.update(static_cast<long long>(done), static_cast<long long>(total));
+    const auto d = static_cast<long long>(done), t = static_cast<long long>(total);
+    if (phase == "step") {
+      progress.update(d, t);
+    } else if (phase == "finish") {
+      progress.finish();
+      finish_progress.update(d, t);
+    } else if (phase == "attributes") {
+      finish_progress.finish();
+      attributes_progress.update(d, t);
+    }
   };
   tiles::OutOfCoreReport report;
   try {
@@ -186,6 +192,8 @@ int run_smooth_out_of_core(const Args& args) {
                       ": once the cause is fixed, run the same command with --resume to continue)");
   }
   progress.finish();
+  finish_progress.finish();
+  attributes_progress.finish();
 
   double seconds_write = 0.0;
   if (!container_out) {
@@ -220,12 +228,11 @@ int run_smooth_out_of_core(const Args& args) {
     j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
     j.add("out_of_core", true).add("points", static_cast<std::size_t>(report.points)).add("tiles", report.tiles);
     j.add("steps", report.steps).add("resumed_from", report.resumed_from).add("threads", thread_count());
+    j.add("stop_reason", report.stop_reason ? std::string(to_string(*report.stop_reason))
+                                            : std::string("unknown (the steps ended before this resume)"));
     j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
-    JsonObject q;
-    q.add("enabled", finish.quadric).add("k", finish.quadric_params.k)
-        .add("angle_degrees", finish.quadric_params.normal_angle)
-        .add("degree", finish.quadric_params.degree).add("passes", finish.quadric_params.passes);
-    j.add("quadric_finish", q);
+    j.add("quadric_finish", finish_json(params));
+    j.add("placement", params.finish && params.placement == Placement::AlongNormal ? "normal" : "free");
     j.add("memory_budget_bytes", static_cast<std::size_t>(ooc.memory_budget));
     j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
     j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <sstream>
 
 namespace pointfair::cli {
 namespace {
@@ -17,6 +18,13 @@ Enum parse_choice(std::string_view text, std::string_view option,
   }
   throw UsageError("--" + std::string(option) + " must be one of " + names + ", got '" +
                    std::string(text) + "'");
+}
+
+// A default as the help text shows it: the shortest decimal that reads back the same.
+std::string format_number(double value) {
+  std::ostringstream s;
+  s << value;
+  return s.str();
 }
 
 }  // namespace
@@ -44,15 +52,27 @@ std::string to_string(ColourBy colour) {
   return "?";
 }
 
-void add_method_options(ArgumentParser& p, SmoothParams& s, FinishOptions* finish) {
+std::string to_string(Placement placement) {
+  return placement == Placement::AlongNormal ? "normal" : "free";
+}
+
+void add_method_options(ArgumentParser& p, SmoothParams& s) {
   p.flag("paper",
          "The method as the paper states it: --cutoff-origin point --normal pca --tau 0.5 "
-         "--steps 100 --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0" +
-             std::string(finish != nullptr ? " --no-quadric-finish" : "") + ". Options after it override it.",
-         [&s, finish] {
-           s = paper_smooth_params(s);
-           if (finish != nullptr) finish->quadric = false;
-         });
+         "--steps 100 --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0 "
+         "--no-quadric-finish --move free. Options after it override it.",
+         [&s] { s = paper_smooth_params(s); });
+  p.value("move", "normal|free",
+          "Where each point goes: 'normal' moves its input position along the surface normal "
+          "onto the smoothed surface (the finish's fits evaluated at the input point), so that "
+          "points do not slide along the surface and open borders stay put; 'free' keeps where "
+          "the flow and the finish left it (the paper's flow, which also moves points along the "
+          "surface). 'normal' needs the finish: with --no-quadric-finish the flow's positions "
+          "are written. Default normal (--paper: free).",
+          [&s](std::string_view v) {
+            s.placement = parse_choice<Placement>(v, "move", {{"normal", Placement::AlongNormal},
+                                                              {"free", Placement::Free}});
+          });
   p.value("k", "N|auto",
           "Neighbours per point, the point itself not counted (1..1024). 'auto': chosen from the "
           "input's noise over its sample spacing, 16 under light noise up to 48 under noise of "
@@ -191,40 +211,48 @@ void add_method_options(ArgumentParser& p, SmoothParams& s, FinishOptions* finis
           [&s](std::string_view v) { s.flow.weingarten.density_floor = parse_double(v, "--density-floor"); });
 }
 
-void add_finish_options(ArgumentParser& p, FinishOptions& f) {
+void add_finish_options(ArgumentParser& p, SmoothParams& s) {
+  // A --quadric-* value turns the finish on (with the defaults for the values not given).
+  const auto finish = [&s]() -> QuadricProjectionParams& {
+    if (!s.finish) s.finish.emplace();
+    return *s.finish;
+  };
   p.flag("quadric-finish",
          "After the flow, move every point onto a cubic fitted to its --quadric-k nearest "
          "neighbours whose normals lie within --quadric-angle of its own, within "
          "--quadric-curvature-reach of its curvature (Tukey-reweighted, --quadric-passes times): "
          "removes the noise the flow leaves on smooth surfaces, keeps creases. Beyond the paper; "
-         "out of core too. Default off.",
-         [&f] { f.quadric = true; });
-  p.flag("no-quadric-finish", "Leave the flow's result as it is (the default; --paper implies it).",
-         [&f] { f.quadric = false; });
-  p.value("quadric-k", "N", "Neighbours of each quadric fit (5..1024). Default 200.",
-          [&f](std::string_view v) { f.quadric_params.k = parse_int(v, "--quadric-k"); });
+         "out of core too. Default on (--paper: off); a --quadric-* option turns it on.",
+         [finish] { finish(); });
+  p.flag("no-quadric-finish", "Leave the flow's result as it is (--paper implies it).",
+         [&s] { s.finish.reset(); });
+  const QuadricProjectionParams d;
+  p.value("quadric-k", "N", "Neighbours of each quadric fit (5..1024). Default " + std::to_string(d.k) + ".",
+          [finish](std::string_view v) { finish().k = parse_int(v, "--quadric-k"); });
   p.value("quadric-angle", "DEGREES",
           "Largest angle between a point's normal and a neighbour's that keeps the neighbour in "
-          "the point's quadric fit, in (0, 90]. Default 30.",
-          [&f](std::string_view v) { f.quadric_params.normal_angle = parse_double(v, "--quadric-angle"); });
+          "the point's quadric fit, in (0, 90]. Default " + format_number(d.normal_angle) + ".",
+          [finish](std::string_view v) { finish().normal_angle = parse_double(v, "--quadric-angle"); });
   p.value("quadric-degree", "2|3",
           "Degree of each fitted height field: 2 (a quadric) or 3 (a cubic, which follows a "
-          "neighbourhood lying to one side of the point). Default 3.",
-          [&f](std::string_view v) { f.quadric_params.degree = parse_int(v, "--quadric-degree"); });
+          "neighbourhood lying to one side of the point). Default " + std::to_string(d.degree) + ".",
+          [finish](std::string_view v) { finish().degree = parse_int(v, "--quadric-degree"); });
   p.value("quadric-passes", "N",
           "Passes of the finish, each with neighbourhoods, normals and fits from the last one's "
-          "result (1..10). Default 2.",
-          [&f](std::string_view v) { f.quadric_params.passes = parse_int(v, "--quadric-passes"); });
+          "result (1..10). Default " + std::to_string(d.passes) + ".",
+          [finish](std::string_view v) { finish().passes = parse_int(v, "--quadric-passes"); });
   p.value("quadric-curvature-reach", "C",
           "Fit each quadric only to the neighbours within C / kappa of the point, kappa the "
           "largest principal curvature of a pilot quadric over its --quadric-min-k nearest: "
           "narrow fits on fine detail, wide ones where the surface is flat. 0: all --quadric-k. "
-          "Default 0.7.",
-          [&f](std::string_view v) {
-            f.quadric_params.curvature_reach = parse_double(v, "--quadric-curvature-reach");
+          "Default " + format_number(d.curvature_reach) + ".",
+          [finish](std::string_view v) {
+            finish().curvature_reach = parse_double(v, "--quadric-curvature-reach");
           });
-  p.value("quadric-min-k", "N", "Neighbours of the pilot quadric of --quadric-curvature-reach (>= 10). Default 40.",
-          [&f](std::string_view v) { f.quadric_params.min_k = parse_int(v, "--quadric-min-k"); });
+  p.value("quadric-min-k", "N",
+          "Neighbours of the pilot quadric of --quadric-curvature-reach (>= 10). Default " +
+              std::to_string(d.min_k) + ".",
+          [finish](std::string_view v) { finish().min_k = parse_int(v, "--quadric-min-k"); });
 }
 
 void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attributes_flag) {

@@ -23,17 +23,12 @@ struct OutputOptions {
   int threads = 0;
 };
 
-/// The pass after the flow (quadric_projection.hpp): on by default, off with --paper.
-struct FinishOptions {
-  bool quadric = true;
-  QuadricProjectionParams quadric_params;
-};
-
-/// Registers --k, --eps, ..., --feature-gated (everything in SmoothParams). With `finish`,
-/// --paper turns the finish off too.
-void add_method_options(ArgumentParser& parser, SmoothParams& params, FinishOptions* finish = nullptr);
-/// Registers --quadric-finish, --no-quadric-finish, --quadric-k, --quadric-angle, ...
-void add_finish_options(ArgumentParser& parser, FinishOptions& finish);
+/// Registers --k, --eps, ..., --feature-gated, --move (everything in SmoothParams but the
+/// finish).
+void add_method_options(ArgumentParser& parser, SmoothParams& params);
+/// Registers --quadric-finish, --no-quadric-finish, --quadric-k, --quadric-angle, ... (the
+/// finish of SmoothParams).
+void add_finish_options(ArgumentParser& parser, SmoothParams& params);
 /// Registers --colour-by, --attributes, --encoding, --json, --quiet, --threads.
 void add_output_options(ArgumentParser& parser, OutputOptions& output, bool with_attributes_flag);
 
@@ -43,5 +38,6 @@ std::string to_string(NormalEstimator normal);
 std::string to_string(FeatureMode mode);
 std::string to_string(AngularWeights weights);
 std::string to_string(ColourBy colour);
+std::string to_string(Placement placement);
 
 }  // namespace pointfair::cli

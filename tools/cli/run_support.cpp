@@ -1,5 +1,7 @@
 #include "run_support.hpp"
 
+#include <cstdio>
+
 #include <algorithm>
 #include <cmath>
 #include <iostream>
@@ -119,6 +121,21 @@ JsonObject parameters_json(const SmoothParams& p, int k, double eps, double lamb
         .add("robust_iterations", p.flow.robust.iterations)
         .add("robust_bound", p.flow.robust.inlier_bound);
   return j;
+}
+
+JsonObject finish_json(const SmoothParams& p) {
+  const QuadricProjectionParams q = p.finish.value_or(QuadricProjectionParams{});
+  JsonObject j;
+  j.add("enabled", p.finish.has_value()).add("k", q.k).add("angle_degrees", q.normal_angle)
+      .add("degree", q.degree).add("passes", q.passes).add("curvature_reach", q.curvature_reach)
+      .add("min_k", q.min_k);
+  return j;
+}
+
+std::string format_fraction(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", value);
+  return text;
 }
 
 }  // namespace pointfair::cli

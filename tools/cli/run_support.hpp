@@ -35,4 +35,10 @@ JsonObject to_json(const DisplacementStats& stats);
 /// `k`: the neighbourhood size used (SmoothReport::k); "k_auto" says whether it was chosen.
 JsonObject parameters_json(const SmoothParams& params, int k, double eps, double lambda);
 
+/// The finish's parameters (SmoothParams::finish) as a JSON object; "enabled" says whether it runs.
+JsonObject finish_json(const SmoothParams& params);
+
+/// A number as printf's %g writes it.
+std::string format_fraction(double value);
+
 }  // namespace pointfair::cli

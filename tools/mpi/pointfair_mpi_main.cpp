@@ -71,9 +71,8 @@ int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
       "ranks wrote it. The result is bit-identical to pointfair smooth IN.h5 OUT.h5.");
   parser.positional("IN", "Input container (.h5).", &input);
   parser.positional("OUT", "Output container (.h5); OUT.partial holds the run until it ends.", &output);
-  cli::FinishOptions finish;
-  cli::add_method_options(parser, params, &finish);
-  cli::add_finish_options(parser, finish);
+  cli::add_method_options(parser, params);
+  cli::add_finish_options(parser, params);
   parser.value("memory-budget", "SIZE", "Working memory of each rank (e.g. 256M, 2G). Default 256M.",
                [&](std::string_view v) { options.memory_budget = cli::parse_size(v, "--memory-budget"); });
   parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters, any number of ranks).",
@@ -85,10 +84,6 @@ int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
   parser.flag("quiet", "No progress or summary on stderr.", [&] { quiet = true; });
   if (!parser.parse(args)) return 0;
   params.validate();
-  if (finish.quadric) {
-    finish.quadric_params.validate();
-    options.quadric_finish = finish.quadric_params;
-  }
   set_thread_count(threads);
   if (const char* stop = std::getenv("POINTFAIR_MPI_STOP_AFTER_STEPS"))
     options.stop_after_steps = cli::parse_int(stop, "POINTFAIR_MPI_STOP_AFTER_STEPS");

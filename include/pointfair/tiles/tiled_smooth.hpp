@@ -23,7 +23,8 @@
 //   tile gathers the pass's positions of its points and of a halo grown until it holds every
 //   point's k nearest, and the normal_neighbors nearest of every halo point in those lists
 //   (whose normals decide which neighbours a fit keeps); the tile's points are projected as
-//   in core and each pass is committed like a step. A pass reads, computes and writes one
+//   in core (the last pass places the input points along the normals: SmoothParams::
+//   placement) and each pass is committed like a step. A pass reads, computes and writes one
 //   tile after the other (no pipeline: the fits, not the I/O, take its time).
 //
 // Each step is a bounded pipeline (pipeline.hpp): tile i+1 and its halo are read while tile
@@ -96,10 +97,6 @@ struct OutOfCoreOptions {
   /// original order. Its positions are copied into the run in row order, in passes over
   /// blocks of an eighth of the budget (each reads the reference again). Empty: the input.
   std::filesystem::path neighbor_reference;
-  /// The quadric finish after the last step (finish_with_quadrics, same bits), before the
-  /// attributes, which are computed on its result with the flow's last lists as in core.
-  /// Empty: none.
-  std::optional<QuadricProjectionParams> quadric_finish;
   /// Stop (as if killed) after this many steps committed by this call; < 0: never. For tests.
   int stop_after_steps = -1;
   /// Stop (as if killed) after this many finish passes committed by this call; < 0: never.
@@ -154,8 +151,11 @@ struct OutOfCoreReport {
   std::uint64_t list_rows_read = 0;
   /// Neighbourhood rebuilds done by this call (SmoothParams::rebuild_interval).
   int rebuilds = 0;
-  /// Quadric finish passes done in total (OutOfCoreOptions::quadric_finish).
+  /// Quadric finish passes done in total (SmoothParams::finish).
   int finish_passes = 0;
+  /// Why the flow stopped, where this call ran its last step or found the automatic stop
+  /// (SmoothReport::stop_reason); empty when it resumed a run whose steps had ended.
+  std::optional<StopReason> stop_reason;
   double seconds_neighbors = 0.0;
   double seconds_steps = 0.0;
   double seconds_finish = 0.0;

@@ -32,8 +32,9 @@ class MpiRunTest : public test::TempDirTest {
   void run_serial(const std::string& out, bool resume = false) {
     OutOfCoreOptions options;
     options.resume = resume;
-    options.quadric_finish = finish_;
-    smooth_out_of_core(path("in.h5"), path(out), params_, options);
+    SmoothParams params = params_;
+    params.finish = finish_;
+    smooth_out_of_core(path("in.h5"), path(out), params, options);
   }
 
   // mpirun -np `ranks` pointfair_mpi smooth in.h5 `out` ...; returns the exit code (124 or
@@ -112,6 +113,7 @@ class MpiRunTest : public test::TempDirTest {
   // The parameters of the runs: those of run_serial, and the same as options of run_mpi.
   SmoothParams params_ = [] {
     SmoothParams p;
+    p.finish.reset();  // the flow alone
     p.steps = kSteps;
     return p;
   }();
@@ -259,9 +261,10 @@ TEST_F(MpiRunTest, QuadricFinishOnTwoRanksBitIdenticalToOneProcess) {
   expect_same_run("ref.h5", "out.h5");
 
   OutOfCoreOptions options;
-  options.quadric_finish = q;
   options.stop_after_finish_passes = 1;
-  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("b.h5"), params_, options).finished);
+  SmoothParams params = params_;
+  params.finish = q;
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("b.h5"), params, options).finished);
   ASSERT_EQ(run_mpi(2, "b.h5", "", true), 0) << log_;
   expect_same_run("ref.h5", "b.h5");
 }
