@@ -88,7 +88,8 @@ bool FileReader::next_line(std::string_view& line) {
     begin_ += advance;
     consumed_ += advance;
     ++line_number_;
-    if (length > 0 && start[length - 1] == '\r') --length;
+    line_had_cr_ = length > 0 && start[length - 1] == '\r';
+    if (line_had_cr_) --length;
     line = std::string_view(start, length);
     return true;
   }

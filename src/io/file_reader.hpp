@@ -31,6 +31,8 @@ class FileReader {
   /// The next line without its '\n' (and without a trailing '\r'); false at end of file.
   /// The view stays valid until the next call on this reader. Throws IoError on read errors.
   bool next_line(std::string_view& line);
+  /// The line last returned by next_line ended with "\r\n" (or a lone final '\r').
+  bool line_had_cr() const { return line_had_cr_; }
   /// Copies up to `size` bytes into `out`; returns how many were available.
   std::size_t read(char* out, std::size_t size);
   /// Skips up to `size` bytes; returns how many were skipped.
@@ -46,6 +48,7 @@ class FileReader {
   std::uint64_t size_ = 0;
   std::uint64_t consumed_ = 0;
   std::uint64_t line_number_ = 0;
+  bool line_had_cr_ = false;
   std::uint64_t read_total_ = 0;  // bytes read from the file so far
   std::vector<char> buffer_;
   std::size_t begin_ = 0;  // first unread byte in buffer_

@@ -134,7 +134,12 @@ PlyHeader read_ply_header(FileReader& reader) {
     const std::vector<std::string_view> tokens = split(line);
     if (tokens.empty()) continue;
     const std::string_view keyword = tokens.front();
-    if (keyword == "comment" || keyword == "obj_info") continue;
+    if (keyword == "comment" || keyword == "obj_info") {
+      std::string_view text = line;
+      while (!text.empty() && (text.back() == '\r' || text.back() == '\n')) text.remove_suffix(1);
+      header.header_lines.emplace_back(text);
+      continue;
+    }
     if (keyword == "end_header") {
       if (!has_format) fail(reader.path(), "header has no format line");
       return header;

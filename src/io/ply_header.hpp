@@ -26,6 +26,8 @@ struct PlyElement {
 struct PlyHeader {
   PlyEncoding encoding = PlyEncoding::Ascii;
   std::vector<PlyElement> elements;
+  /// "comment ..." and "obj_info ..." lines, as written (without the line end).
+  std::vector<std::string> header_lines;
 };
 
 /// Reads lines up to and including "end_header". Throws IoError on any malformed header.

@@ -317,6 +317,9 @@ class PlyChunkReader final : public PointChunkReader {
     layout_ = plan_vertices(file, *vertex, schema_);
     ascii_ = header_.encoding == PlyEncoding::Ascii;
     swap_ = needs_swap(header_.encoding == PlyEncoding::BinaryBigEndian);
+    PlyLayout source{.encoding = header_.encoding, .header_lines = header_.header_lines, .properties = {}};
+    for (const PlyProperty& property : vertex->properties) source.properties.push_back(property.name);
+    schema_.ply = std::move(source);
     for (std::size_t e = 0; e < vertex_; ++e) skip(header_.elements[e]);
     if (ascii_) {
       check_ascii_count(reader_, *vertex, layout_);

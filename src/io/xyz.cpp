@@ -79,6 +79,38 @@ std::string at_line(const FileReader& reader) {
   return "line " + std::to_string(reader.line_number()) + ": ";
 }
 
+// The text between the first two fields of `line` (trimmed): the delimiter with the blanks
+// around it, or the first run of whitespace.
+std::string separator_of(std::string_view line) {
+  std::size_t begin = line.find_first_of(",;");
+  std::size_t end = begin == std::string_view::npos ? 0 : begin + 1;
+  if (begin == std::string_view::npos) {
+    begin = 0;
+    while (begin < line.size() && !is_space(line[begin])) ++begin;
+    end = begin;
+  }
+  while (begin > 0 && is_space(line[begin - 1])) --begin;
+  while (end < line.size() && is_space(line[end])) ++end;
+  return begin < end ? std::string(line.substr(begin, end - begin)) : std::string(" ");
+}
+
+// Digits after the point of a number written in plain fixed notation ("-12.50": 2, "7": 0);
+// -1 for any other spelling ("1e3", "+2", "5.", "nan", "007"), which is then written back in
+// the shortest form that reads back exactly.
+int decimals_of(std::string_view text) {
+  if (!text.empty() && text.front() == '-') text.remove_prefix(1);
+  const std::size_t point = text.find('.');
+  const std::string_view whole = text.substr(0, point);
+  const auto digits = [](std::string_view part) {
+    return std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; });
+  };
+  if (whole.empty() || !digits(whole) || (whole.size() > 1 && whole.front() == '0')) return -1;
+  if (point == std::string_view::npos) return 0;
+  const std::string_view fraction = text.substr(point + 1);
+  if (fraction.empty() || fraction.size() > 40 || !digits(fraction)) return -1;
+  return static_cast<int>(fraction.size());
+}
+
 // Which column feeds what: coordinate[c] is the column of x, y, z; every other column
 // becomes attribute `attribute_of[column]`.
 struct Layout {
@@ -104,12 +136,14 @@ Layout layout_from_header(const FileReader& reader, const std::vector<std::strin
       if (has[c]) fail(reader.path(), at_line(reader) + "header names column " + folded + " twice");
       has[c] = true;
       layout.coordinate[c] = column;
+      table.text->columns.push_back(TextColumn{folded, c, std::string(fields[column]), -1});
       continue;
     }
     if (table.find(name) != nullptr) {
       fail(reader.path(), at_line(reader) + "header names column '" + name + "' twice");
     }
     layout.attribute_of[column] = table.attributes.size();
+    table.text->columns.push_back(TextColumn{name, -1, std::string(fields[column]), -1});
     table.attributes.push_back(Attribute{name, ScalarType::Float64, {}});
   }
   for (int c = 0; c < 3; ++c) {
@@ -128,10 +162,12 @@ Layout layout_without_header(const FileReader& reader, std::size_t columns, Poin
   Layout layout;
   layout.columns = columns;
   layout.attribute_of.assign(columns, kNone);
+  for (int c = 0; c < 3; ++c) table.text->columns.push_back(TextColumn{std::string(1, char('x' + c)), c, {}, -1});
   for (std::size_t column = 3; column < columns; ++column) {
     std::string name = "field_" + std::to_string(column);
     if (columns == 6) name = std::string(1, 'n') + char('x' + (column - 3));
     layout.attribute_of[column] = table.attributes.size();
+    table.text->columns.push_back(TextColumn{name, -1, {}, -1});
     table.attributes.push_back(Attribute{name, ScalarType::Float64, {}});
   }
   return layout;
@@ -178,19 +214,33 @@ class XyzChunkReader final : public PointChunkReader {
   XyzChunkReader(const fs::path& file, const ReadOptions& options)
       : PointChunkReader(file), options_(options), reader_(file) {
     schema_.position_type = ScalarType::Float64;
+    schema_.text.emplace();
+    TextLayout& text = *schema_.text;
     std::string_view line;
     while (!layout_ && next_content_line(line)) {
       if (!seen_content_) {
         seen_content_ = true;
+        text.line_end = reader_.line_had_cr() ? "\r\n" : "\n";
         declared_count_ = point_count(fields_);
+        text.count_line = declared_count_.has_value();
         if (declared_count_) continue;
       }
       if (!all_numbers(fields_)) {
+        text.header = true;
+        text.separator = separator_of(line);
         layout_ = layout_from_header(reader_, fields_, schema_);
-        continue;
+        // The first row too: its spelling of the numbers is part of the schema.
+        pending_row_ = next_content_line(line);
+        break;
       }
       layout_ = layout_without_header(reader_, fields_.size(), schema_);
       pending_row_ = true;  // fields_ holds the first row
+    }
+    if (pending_row_) {
+      if (fields_.size() > 1) text.separator = separator_of(line);
+      for (std::size_t column = 0; column < fields_.size() && column < text.columns.size(); ++column) {
+        text.columns[column].decimals = decimals_of(fields_[column]);
+      }
     }
     if (!seen_content_)
       fail(file, reader_.size() == 0 ? "empty file" : "no points (only comments or blank lines)");
@@ -266,11 +316,15 @@ PointTable read_xyz(const fs::path& file, const ReadOptions& options) {
 
 namespace {
 
-void check_xyz_names(const fs::path& file, const PointTable& table) {
+// The names written to a header line must read back as the same columns. `first` skips
+// the attributes whose header field is the source's own text (read from that header).
+void check_xyz_names(const fs::path& file, const PointTable& table, std::size_t first = 0) {
   // A set, not a scan of the earlier names: a LAS record can carry 65,000 extra bytes.
   std::unordered_set<std::string_view> seen;
   for (std::size_t i = 0; i < table.attributes.size(); ++i) {
     const std::string& name = table.attributes[i].name;
+    if (!seen.insert(name).second) fail(file, "duplicate attribute '" + name + "'");
+    if (i < first) continue;
     const bool readable = !name.empty() && name.front() != '#' && name.front() != '"' &&
                           name.front() != '\'' &&
                           std::none_of(name.begin(), name.end(), [](char c) {
@@ -281,8 +335,74 @@ void check_xyz_names(const fs::path& file, const PointTable& table) {
     if (folded == "x" || folded == "y" || folded == "z") {
       fail(file, "attribute name '" + name + "' clashes with a coordinate");
     }
-    if (!seen.insert(name).second) fail(file, "duplicate attribute '" + name + "'");
   }
+}
+
+// A column of the output: the coordinate `axis` (0..2) or attribute `attribute`, with the
+// header field and number spelling (TextColumn::decimals) it is written with.
+struct OutputColumn {
+  int axis = -1;
+  std::size_t attribute = 0;
+  std::string header;
+  int decimals = -1;
+};
+
+// The source's columns (table.text) that the table still has, in the source's order, then
+// the table's other attributes. Sorted so that the attributes with the source's header text
+// come first in `sourced` (how many of them there are).
+std::vector<OutputColumn> output_columns(const PointTable& table, std::size_t& sourced) {
+  std::vector<OutputColumn> columns;
+  std::vector<bool> placed(table.attributes.size(), false);
+  bool axis_placed[3] = {false, false, false};
+  sourced = 0;
+  if (table.text) {
+    for (const TextColumn& column : table.text->columns) {
+      if (column.axis >= 0 && column.axis < 3) {
+        if (axis_placed[column.axis]) continue;
+        axis_placed[column.axis] = true;
+        columns.push_back(OutputColumn{column.axis, 0, column.header, column.decimals});
+        continue;
+      }
+      for (std::size_t a = 0; a < table.attributes.size(); ++a) {
+        if (placed[a] || table.attributes[a].name != column.name) continue;
+        placed[a] = true;
+        columns.push_back(OutputColumn{-1, a, column.header, column.decimals});
+        break;
+      }
+    }
+  }
+  // A source without all three coordinates (only a point count) or none: x y z first.
+  for (int c = 2; c >= 0; --c) {
+    if (!axis_placed[c]) columns.insert(columns.begin(), OutputColumn{c, 0, {}, -1});
+  }
+  for (std::size_t a = 0; a < table.attributes.size(); ++a) {
+    if (placed[a]) continue;
+    columns.push_back(OutputColumn{-1, a, {}, -1});
+  }
+  for (OutputColumn& column : columns) {
+    if (!column.header.empty()) continue;
+    column.header = column.axis >= 0 ? std::string(1, static_cast<char>('x' + column.axis))
+                                     : table.attributes[column.attribute].name;
+  }
+  sourced = static_cast<std::size_t>(std::count(placed.begin(), placed.end(), true));
+  return columns;
+}
+
+// Appends `value` with `decimals` digits after the point when that text reads back as exactly
+// `value` (so a value read from "12.50" is written "12.50" again), else the shortest text
+// that does.
+void append_spelled(std::string& out, double value, int decimals) {
+  if (decimals >= 0 && std::isfinite(value) && std::abs(value) < 1e17) {
+    char buffer[64];
+    const auto [end, error] = std::to_chars(buffer, buffer + sizeof buffer, value, std::chars_format::fixed, decimals);
+    double back = 0;
+    if (error == std::errc{} && parse_double(std::string_view(buffer, static_cast<std::size_t>(end - buffer)), back) &&
+        back == value && std::signbit(back) == std::signbit(value)) {
+      out.append(buffer, end);
+      return;
+    }
+  }
+  append_number(out, value);
 }
 
 }  // namespace
@@ -293,24 +413,41 @@ class XyzChunkWriter final : public PointChunkWriter {
  public:
   XyzChunkWriter(const fs::path& file, const PointTable& schema, std::uint64_t count)
       : path_(file), count_(count) {
-    check_xyz_names(file, schema);
     for (const Attribute& attribute : schema.attributes) {
       schema_.attributes.push_back(Attribute{attribute.name, attribute.type, {}});
     }
-    separator_ = lower(file.extension().string()) == ".csv" ? ',' : ' ';
+    schema_.text = schema.text;
+    std::size_t sourced = 0;
+    columns_ = output_columns(schema_, sourced);
+    const bool header = schema.text ? schema.text->header : !schema_.attributes.empty();
+    // Only names that go into a header line must read back from it; the source's own
+    // columns keep their header text (which may be quoted, or hold blanks between commas).
+    if (header) {
+      std::vector<Attribute> reordered;
+      for (const OutputColumn& column : columns_) {
+        if (column.axis < 0) reordered.push_back(Attribute{schema_.attributes[column.attribute].name, {}, {}});
+      }
+      PointTable names;
+      names.attributes = std::move(reordered);
+      check_xyz_names(file, names, sourced);
+    } else {
+      check_xyz_names(file, schema_, schema_.attributes.size());
+    }
+    if (schema.text) {
+      separator_ = schema.text->separator;
+      line_end_ = schema.text->line_end;
+    } else {
+      separator_ = lower(file.extension().string()) == ".csv" ? "," : " ";
+    }
     file_.emplace(file);
     text_.reserve(kTextFlushBytes + 4096);
-    if (!schema_.attributes.empty()) {
-      text_ += "x";
-      text_ += separator_;
-      text_ += "y";
-      text_ += separator_;
-      text_ += "z";
-      for (const Attribute& attribute : schema_.attributes) {
-        text_ += separator_;
-        text_ += attribute.name;
+    if (schema.text && schema.text->count_line) text_ += std::to_string(count) + line_end_;
+    if (header) {
+      for (std::size_t c = 0; c < columns_.size(); ++c) {
+        if (c > 0) text_ += separator_;
+        text_ += columns_[c].header;
       }
-      text_ += '\n';
+      text_ += line_end_;
     }
   }
 
@@ -321,15 +458,14 @@ class XyzChunkWriter final : public PointChunkWriter {
       fail(path_, "more points written than the " + std::to_string(count_) + " declared");
     }
     for (std::size_t i = 0; i < chunk.size(); ++i) {
-      for (int c = 0; c < 3; ++c) {
+      for (std::size_t c = 0; c < columns_.size(); ++c) {
         if (c > 0) text_ += separator_;
-        append_number(text_, chunk.positions[i][c]);
+        const OutputColumn& column = columns_[c];
+        append_spelled(text_,
+                       column.axis >= 0 ? chunk.positions[i][column.axis] : chunk.attributes[column.attribute].values[i],
+                       column.decimals);
       }
-      for (const Attribute& attribute : chunk.attributes) {
-        text_ += separator_;
-        append_number(text_, attribute.values[i]);
-      }
-      text_ += '\n';
+      text_ += line_end_;
       if (text_.size() >= kTextFlushBytes) {
         file_->sink().write(text_);
         text_.clear();
@@ -351,8 +487,10 @@ class XyzChunkWriter final : public PointChunkWriter {
  private:
   fs::path path_;
   PointTable schema_;
+  std::vector<OutputColumn> columns_;
   std::uint64_t count_ = 0;
-  char separator_ = ' ';
+  std::string separator_ = " ";
+  std::string line_end_ = "\n";
   std::string text_;
   std::optional<AtomicFile> file_;
 };
@@ -367,7 +505,6 @@ std::unique_ptr<PointChunkWriter> open_xyz_writer(const fs::path& file, const Po
 void write_xyz(const fs::path& file, const PointTable& table) {
   // Checked before the output file is created.
   check_table(file, table);
-  check_xyz_names(file, table);
   XyzChunkWriter writer(file, table, table.size());
   writer.write(table);
   writer.finish();

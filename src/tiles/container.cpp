@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "pointfair/io/source_layout.hpp"
 #include "pointfair/version.hpp"
 #include "temporary_file.hpp"
 
@@ -102,6 +103,8 @@ void write_source_format(h5::File& f, const io::PointTable& table) {
     f.set_attribute(layout::points, "las_file_source_id", std::int64_t{table.las->file_source_id});
     write_las_records(f, *table.las);
   }
+  const std::string source = io::encode_source_layout(table);
+  if (!source.empty()) write_bytes(f, layout::source_layout, source);
 }
 
 void read_source_format(const h5::File& f, io::PointTable& table) {
@@ -133,6 +136,9 @@ void read_source_format(const h5::File& f, io::PointTable& table) {
     read_las_records(f, las);
     table.las = las;
   }
+  if (f.exists(layout::source_layout) &&
+      !io::decode_source_layout(read_bytes(f, layout::source_layout), table))
+    f.fail(layout::source_layout, "not a layout this version wrote");
 }
 
 void write_container(const fs::path& file, const io::PointTable& table, const ImportOptions& options) {

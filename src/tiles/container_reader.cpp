@@ -170,6 +170,8 @@ std::size_t ContainerChunkReader::append(io::PointTable& chunk, std::size_t max_
   const auto m = static_cast<std::size_t>(count);
   chunk.quantization = schema_.quantization;
   chunk.las = schema_.las;
+  chunk.text = schema_.text;
+  chunk.ply = schema_.ply;
   chunk.positions.assign(m, Vec3::Zero());
   for (io::Attribute& a : chunk.attributes) a.values.assign(m, 0.0);
   if (options_.run_attributes) {

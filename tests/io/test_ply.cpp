@@ -586,3 +586,63 @@ TEST(PlyWrite, MillionPointBinaryRoundTrip) {
 
 }  // namespace
 }  // namespace pointfair::io
+
+// ---- The source's layout comes back: encoding, comments, property types and order. ----
+
+namespace pointfair::io {
+namespace {
+
+TEST(PlyLayout, AsciiWithCommentsAndInterleavedPropertiesComesBackAsItWas) {
+  TempDir dir;
+  const std::string text =
+      "ply\n"
+      "format ascii 1.0\n"
+      "comment scanner: T-1000\n"
+      "obj_info site 12\n"
+      "element vertex 2\n"
+      "property uchar red\n"
+      "property float x\n"
+      "property float y\n"
+      "property float z\n"
+      "property ushort intensity\n"
+      "property uchar green\n"
+      "property uchar blue\n"
+      "end_header\n"
+      "255 1.5 2 3 40000 0 7\n"
+      "0 -1 0.25 8 12 255 9\n";
+  write_file(dir / "in.ply", text);
+  write_ply(dir / "out.ply", read_ply(dir / "in.ply"));
+  EXPECT_EQ(read_file(dir / "out.ply"), text);
+}
+
+TEST(PlyLayout, BinaryBigEndianStaysSoUnlessAnEncodingIsGiven) {
+  TempDir dir;
+  PointTable table;
+  table.positions = {Vec3(1, 2, 3)};
+  table.position_type = ScalarType::Float32;
+  table.set("red", ScalarType::UInt8, {200});
+  write_ply(dir / "be.ply", table, PlyEncoding::BinaryBigEndian);
+  const PointTable read = read_ply(dir / "be.ply");
+  ASSERT_TRUE(read.ply.has_value());
+  EXPECT_EQ(read.ply->encoding, PlyEncoding::BinaryBigEndian);
+  write_ply(dir / "kept.ply", read);
+  EXPECT_EQ(read_file(dir / "kept.ply"), read_file(dir / "be.ply"));
+  write_ply(dir / "ascii.ply", read, PlyEncoding::Ascii);
+  EXPECT_NE(read_file(dir / "ascii.ply").find("format ascii 1.0\n"), std::string::npos);
+}
+
+TEST(PlyLayout, AttributesAddedAfterTheSourceOnesAndWithoutOurComment) {
+  TempDir dir;
+  write_file(dir / "in.ply",
+             "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\n"
+             "property double z\nproperty float nx\nend_header\n1 2 3 0.5\n");
+  PointTable table = read_ply(dir / "in.ply");
+  table.set("k1", ScalarType::Float32, {-2});
+  write_ply(dir / "out.ply", table);
+  EXPECT_EQ(read_file(dir / "out.ply"),
+            "ply\nformat ascii 1.0\nelement vertex 1\nproperty double x\nproperty double y\n"
+            "property double z\nproperty float nx\nproperty float k1\nend_header\n1 2 3 0.5 -2\n");
+}
+
+}  // namespace
+}  // namespace pointfair::io

@@ -239,3 +239,78 @@ TEST(XyzErrors, WriteRefusesNamesThatWouldNotReadBack) {
 
 }  // namespace
 }  // namespace pointfair::io
+
+// ---- The source's layout comes back: read_xyz then write_xyz reproduces the text. ----
+
+namespace pointfair::io {
+namespace {
+
+std::string round_trip(const TempDir& dir, const std::string& name, const std::string& text) {
+  write_file(dir / name, text);
+  write_xyz(dir / ("out-" + name), read_xyz(dir / name));
+  return read_file(dir / ("out-" + name));
+}
+
+TEST(XyzLayout, HeaderlessThreeColumnsStayHeaderless) {
+  TempDir dir;
+  const std::string text = "500100.125 4200000.500 12.000\n500100.250 4200000.750 12.125\n";
+  EXPECT_EQ(round_trip(dir, "scan.xyz", text), text);
+}
+
+TEST(XyzLayout, CommaCsvWithHeaderKeepsNamesOrderAndSpelling) {
+  TempDir dir;
+  const std::string text =
+      "X,Y,Z,Red,Green,Blue,Intensity,Classification\n"
+      "500100.125,4200000.500,12.000,255,128,0,0.50,2\n"
+      "500100.250,4200000.750,12.125,0,64,255,1.25,6\n";
+  EXPECT_EQ(round_trip(dir, "scan.csv", text), text);
+}
+
+TEST(XyzLayout, TabSemicolonQuotedHeaderCountLineAndCrlfAreKept) {
+  TempDir dir;
+  const std::string tabs = "x\ty\tz\tintensity\n1.0\t2.0\t3.0\t17\n4.0\t5.0\t6.0\t18\n";
+  EXPECT_EQ(round_trip(dir, "tabs.txt", tabs), tabs);
+  const std::string semicolons = "\"x\"; \"y\"; \"z\"; \"Point Source\"\r\n1.5; 2.5; 3.5; 7\r\n";
+  EXPECT_EQ(round_trip(dir, "semi.csv", semicolons), semicolons);
+  const std::string pts = "2\n1 2 3 100 10 20 30\n4 5 6 -200 40 50 60\n";
+  EXPECT_EQ(round_trip(dir, "scan.pts", pts), pts);
+}
+
+TEST(XyzLayout, HeaderlessSixColumnsAreNotMistakenForNormals) {
+  TempDir dir;
+  // Six columns without a header read as x y z nx ny nz, but nothing says they are normals.
+  const std::string text = "1 2 3 255 0 128\n4 5 6 0 255 64\n";
+  EXPECT_EQ(round_trip(dir, "rgb.xyz", text), text);
+}
+
+TEST(XyzLayout, MovedValuesStayExactAndOtherSpellingsComeBackShortest) {
+  TempDir dir;
+  write_file(dir / "in.xyz", "x y z a b\n1.50 2 3 1e3 0.10\n1.25 2 3 7 0.1\n");
+  PointTable table = read_xyz(dir / "in.xyz");
+  table.positions[0].x() = 1.0 / 3.0;  // moved: needs every digit
+  write_xyz(dir / "out.xyz", table);
+  // "1e3" is not fixed notation: shortest; "0.1" under a 2-decimal column: "0.10" (same value).
+  EXPECT_EQ(read_file(dir / "out.xyz"),
+            "x y z a b\n0.3333333333333333 2 3 1000 0.10\n1.25 2 3 7 0.10\n");
+}
+
+TEST(XyzLayout, ColumnsAddedToAHeaderlessFileFollowWithoutAHeader) {
+  TempDir dir;
+  write_file(dir / "in.xyz", "1 2 3\n4 5 6\n");
+  PointTable table = read_xyz(dir / "in.xyz");
+  table.set("k1", ScalarType::Float32, {0.5, -0.25});
+  write_xyz(dir / "out.xyz", table);
+  EXPECT_EQ(read_file(dir / "out.xyz"), "1 2 3 0.5\n4 5 6 -0.25\n");
+}
+
+TEST(XyzLayout, ColumnsAddedToAFileWithHeaderAreNamedAfterItsOwn) {
+  TempDir dir;
+  write_file(dir / "in.csv", "x;y;z;i\n1;2;3;9\n");
+  PointTable table = read_xyz(dir / "in.csv");
+  table.set("red", ScalarType::UInt8, {255});
+  write_xyz(dir / "out.csv", table);
+  EXPECT_EQ(read_file(dir / "out.csv"), "x;y;z;i;red\n1;2;3;9;255\n");
+}
+
+}  // namespace
+}  // namespace pointfair::io

@@ -6,6 +6,7 @@
 #include "commands.hpp"
 #include "interrupt.hpp"
 #include "run_support.hpp"
+#include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/version.hpp"
 
@@ -22,7 +23,10 @@ int run_curvature(const Args& args) {
                         "without moving any point. Normals point away from the bounding-box "
                         "centre; curvatures are positive where the surface is convex (a sphere: +1/R).");
   parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
-  parser.positional("OUT", "Output point file with the attributes as named properties/columns.",
+  parser.positional("OUT",
+                    "Output point file with the attributes as named properties/columns, after the "
+                    "input's own (whose normals are replaced); coloured by kmax unless the input "
+                    "has colours of its own or --colour-by says otherwise.",
                     &output_path);
   add_method_options(parser, params);
   add_output_options(parser, output, false);
@@ -32,6 +36,9 @@ int run_curvature(const Args& args) {
 
   const auto t0 = std::chrono::steady_clock::now();
   io::PointTable table = read_input(input, output.quiet);
+  // Colouring by curvature is this command's purpose, but a cloud's own colours stay unless
+  // --colour-by asks to replace them.
+  if (!output.colour_by_given && !io::has_colour(table)) output.colour_by = ColourBy::MaxCurvature;
   throw_if_interrupted();
   const NeighborParams neighbor_params = resolve_k(params, table.positions).neighbors;
   const Neighborhoods neighborhoods = build_neighborhoods(table.positions, neighbor_params);

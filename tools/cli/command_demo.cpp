@@ -90,6 +90,7 @@ int run_demo(const Args& args) {
   int seed = 1;
   SmoothParams params;
   OutputOptions output;
+  output.colour_by = ColourBy::MaxCurvature;  // the demo's pictures are coloured
   ArgumentParser parser(
       "pointfair demo",
       "The paper's octahedron experiment (Figure 4) on a built-in input: a regular 4-1 "

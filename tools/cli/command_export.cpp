@@ -18,7 +18,9 @@ int run_export(const Args& args) {
   ArgumentParser parser("pointfair export",
                         "Writes the points of an HDF5 scan container to a point file, in the input's "
                         "point order. For a container holding a finished smoothing run, the smoothed "
-                        "positions and (with --attributes or --colour-by) the run's per-point results.");
+                        "positions and (with --attributes or --colour-by) the run's per-point results; "
+                        "the input's normals are replaced by the run's, and the file is written in "
+                        "the layout of the file that was imported (docs/formats.md).");
   parser.positional("IN", "Input container (.h5).", &input);
   parser.positional("OUT", "Output point file (.ply, .las, .xyz, .txt, .pts, .csv).", &output);
   parser.flag("tile-order", "Write points in the container's tile order instead of the input's order.",

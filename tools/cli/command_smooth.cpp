@@ -7,6 +7,7 @@
 #include "interrupt.hpp"
 #include "progress.hpp"
 #include "run_support.hpp"
+#include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/version.hpp"
@@ -28,8 +29,11 @@ int run_smooth(const Args& args) {
   OutputOptions output;
   ArgumentParser parser("pointfair smooth",
                         "Denoises a point cloud with the anisotropic mean curvature flow of Lange & "
-                        "Polthier (2005), keeping sharp edges and corners. Reads and writes PLY "
-                        "(any encoding; extra vertex properties are carried through) and XYZ/CSV text.");
+                        "Polthier (2005), keeping sharp edges and corners. Reads and writes PLY, LAS "
+                        "and XYZ/CSV text: only the positions change (and normals, which are "
+                        "recomputed); every other attribute, colours included, and the file's "
+                        "layout (PLY encoding, text columns, header, separator) come back as they "
+                        "were (docs/formats.md).");
   parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
   parser.positional("OUT", "Output point file; written under a temporary name and renamed when complete.",
                     &output_path);
@@ -91,7 +95,8 @@ int run_smooth(const Args& args) {
   finish_progress.finish();
 
   auto t0 = std::chrono::steady_clock::now();
-  const bool need_attributes = output.attributes || output.colour_by != ColourBy::None;
+  const bool need_attributes =
+      output.attributes || output.colour_by != ColourBy::None || !io::normal_columns(table).empty();
   std::size_t degenerate_final = report.degenerate;
   if (need_attributes) {
     throw_if_interrupted();

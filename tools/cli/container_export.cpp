@@ -12,6 +12,7 @@
 
 #include "run_support.hpp"
 #include "pointfair/colour.hpp"
+#include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/las.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/tiles/container.hpp"
@@ -103,7 +104,11 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
                           f.exists(std::string(tiles::layout::run_attributes) + "/k1");
   }
   const bool colour = summary.has_results && out.colour_by != ColourBy::None;
-  const bool results = summary.has_results && (out.attributes || colour);
+  // Normals of the input no longer match smoothed positions: the run's replace them.
+  const bool stale_normals =
+      summary.has_results &&
+      !io::normal_columns(tiles::ContainerChunkReader(container, {.original_order = false}).schema()).empty();
+  const bool results = summary.has_results && (out.attributes || colour || stale_normals);
   std::array<double, 2> range{0.0, 0.0};
   if (colour) range = colour_range(container, out.colour_by, out.colour_clip);
 
@@ -154,9 +159,7 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
   }
   io::WriteOptions write;
   write.input = input;
-  if (out.encoding == "ascii") write.ply_encoding = io::PlyEncoding::Ascii;
-  else if (out.encoding == "binary-be") write.ply_encoding = io::PlyEncoding::BinaryBigEndian;
-  else write.ply_encoding = io::PlyEncoding::BinaryLittleEndian;
+  write.ply_encoding = ply_encoding(out.encoding);
   const auto writer = io::open_point_writer(output, schema, summary.points, write);
   io::PointTable chunk;
   while (reader.read(chunk, chunk_points) > 0) {

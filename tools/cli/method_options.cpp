@@ -258,9 +258,11 @@ void add_finish_options(ArgumentParser& p, SmoothParams& s) {
 void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attributes_flag) {
   p.value("colour-by", "kmax|laplacian|none",
           "Colour points (red/green/blue) by the maximal principal curvature max(|k1|, |k2|) or "
-          "by |A_i|, hue 0 (minimum) to 1.5 pi (maximum); 'none' keeps the input's colours. "
-          "Default kmax.",
+          "by |A_i|, hue 0 (minimum) to 1.5 pi (maximum), replacing the input's colours; 'none' "
+          "keeps the input's colours. Default none (curvature: kmax for a cloud without colours of "
+          "its own; demo: kmax).",
           [&o](std::string_view v) {
+            o.colour_by_given = true;
             o.colour_by = parse_choice<ColourBy>(
                 v, "colour-by", {{"kmax", ColourBy::MaxCurvature}, {"laplacian", ColourBy::Laplacian},
                                  {"none", ColourBy::None}});
@@ -275,9 +277,12 @@ void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attribute
           });
   if (with_attributes_flag)
     p.flag("attributes",
-           "Also write nx ny nz k1 k2 d1 d2 mean_curvature laplacian_norm feature_class per point.",
+           "Also write nx ny nz k1 k2 d1 d2 mean_curvature laplacian_norm feature_class per point, "
+           "after the input's own columns (a text file without a header line gets no header: "
+           "the columns follow in this order).",
            [&o] { o.attributes = true; });
-  p.value("encoding", "binary|binary-be|ascii", "PLY encoding of the output. Default binary (little endian).",
+  p.value("encoding", "binary|binary-be|ascii",
+          "PLY encoding of the output. Default: a PLY input's encoding, else binary (little endian).",
           [&o](std::string_view v) {
             if (v != "binary" && v != "binary-be" && v != "ascii")
               throw UsageError("--encoding must be one of binary, binary-be, ascii, got '" + std::string(v) + "'");

@@ -12,12 +12,16 @@ namespace pointfair::cli {
 enum class ColourBy { MaxCurvature, Laplacian, None };
 
 struct OutputOptions {
-  ColourBy colour_by = ColourBy::MaxCurvature;
+  /// None: the input's own colours, if any, are kept. curvature and demo colour by kmax.
+  ColourBy colour_by = ColourBy::None;
+  /// --colour-by was given (curvature then colours even a cloud with colours of its own).
+  bool colour_by_given = false;
   /// Fraction of points clipped at each end of the colour range (0 = the paper's min-max).
   double colour_clip = 0.01;
   /// Also write normal, k1, k2, d1, d2, H, |A| and feature class per point.
   bool attributes = false;
-  std::string encoding = "binary";
+  /// PLY encoding: "binary", "binary-be", "ascii"; empty: a PLY input's, else "binary".
+  std::string encoding;
   bool json = false;
   bool quiet = false;
   int threads = 0;

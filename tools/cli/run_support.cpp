@@ -7,6 +7,7 @@
 #include <iostream>
 
 #include "pointfair/colour.hpp"
+#include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/shapes.hpp"
 
@@ -20,13 +21,18 @@ io::PointTable read_input(const std::filesystem::path& path, bool quiet) {
   return io::read_points(path, options);
 }
 
+std::optional<io::PlyEncoding> ply_encoding(const std::string& encoding) {
+  if (encoding == "ascii") return io::PlyEncoding::Ascii;
+  if (encoding == "binary-be") return io::PlyEncoding::BinaryBigEndian;
+  if (encoding == "binary") return io::PlyEncoding::BinaryLittleEndian;
+  return std::nullopt;
+}
+
 void write_output(const std::filesystem::path& path, const io::PointTable& table,
                   const OutputOptions& output, const std::filesystem::path& input) {
   io::WriteOptions options;
   options.input = input;
-  if (output.encoding == "ascii") options.ply_encoding = io::PlyEncoding::Ascii;
-  else if (output.encoding == "binary-be") options.ply_encoding = io::PlyEncoding::BinaryBigEndian;
-  else options.ply_encoding = io::PlyEncoding::BinaryLittleEndian;
+  options.ply_encoding = ply_encoding(output.encoding);
   io::write_points(path, table, options);
 }
 
@@ -39,10 +45,17 @@ void add_result_columns(io::PointTable& table, const PointAttributes& a,
     return v;
   };
   using io::ScalarType;
+  // The input's normals no longer match the moved points: the new ones replace them.
+  if (a.normal.size() == n) io::refresh_normals(table, a.normal);
   if (all_attributes) {
-    for (int c = 0; c < 3; ++c) {
+    // Normals just refreshed keep their columns, types and orientation. Columns called nx
+    // that are not normals (a headerless file's guess, integers) are left alone: the
+    // normals then go to normal_x normal_y normal_z.
+    const bool refreshed = !io::normal_columns(table).empty();
+    const std::string prefix = !table.find("nx") ? "n" : !table.find("normal_x") ? "normal_" : "";
+    for (int c = 0; c < 3 && !refreshed && !prefix.empty(); ++c) {
       const char* axis = c == 0 ? "x" : c == 1 ? "y" : "z";
-      table.set(std::string("n") + axis, ScalarType::Float32, column([&](std::size_t i) { return a.normal[i][c]; }));
+      table.set(prefix + axis, ScalarType::Float32, column([&](std::size_t i) { return a.normal[i][c]; }));
     }
     table.set("k1", ScalarType::Float32, a.k1);
     table.set("k2", ScalarType::Float32, a.k2);

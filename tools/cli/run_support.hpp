@@ -2,11 +2,13 @@
 // Pieces every command shares: reading the input, turning results into output columns,
 // displacement statistics, writing.
 #include <filesystem>
+#include <optional>
 #include <span>
 #include <string>
 
 #include "json_writer.hpp"
 #include "method_options.hpp"
+#include "pointfair/io/ply.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/smooth.hpp"
 
@@ -15,11 +17,15 @@ namespace pointfair::cli {
 /// Reads a point file; warnings go to stderr unless quiet.
 io::PointTable read_input(const std::filesystem::path& path, bool quiet);
 
+/// The PLY encoding of --encoding ("binary", "binary-be", "ascii"); empty keeps the source's.
+std::optional<io::PlyEncoding> ply_encoding(const std::string& encoding);
+
 /// Writes `table` atomically with the chosen encoding, refusing to overwrite `input`.
 void write_output(const std::filesystem::path& path, const io::PointTable& table,
                   const OutputOptions& output, const std::filesystem::path& input = {});
 
-/// Adds colour (red/green/blue) and, if asked, the per-point attribute columns.
+/// Replaces the input's normal columns (io::normal_columns) by the new normals, adds colour
+/// (red/green/blue) when output.colour_by asks and, if asked, the per-point attribute columns.
 void add_result_columns(io::PointTable& table, const PointAttributes& attributes,
                         const OutputOptions& output, bool all_attributes);
 

@@ -3,13 +3,12 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "pointfair/io/point_chunks.hpp"
 #include "pointfair/io/point_table.hpp"
 
 namespace pointfair::io {
-
-enum class PlyEncoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
 
 /// Reads the "vertex" element of a PLY file (ascii, binary_little_endian or
 /// binary_big_endian). x, y, z (float or double) become positions; every other vertex
@@ -27,14 +26,17 @@ std::unique_ptr<PointChunkReader> open_ply_reader(const std::filesystem::path& f
                                                   const ReadOptions& options = {});
 
 /// Writes `table` atomically (see write_file_atomically) as a PLY file: x, y, z stored as
-/// float when table.position_type is Float32 and as double otherwise, then every attribute
-/// in order in its own type (integers rounded and saturated to the type's range). ASCII
-/// numbers read back exactly.
+/// float when table.position_type is Float32 and as double otherwise, every attribute in its
+/// own type (integers rounded and saturated to the type's range). ASCII numbers read back
+/// exactly. A table read from PLY (table.ply) keeps its source's encoding (unless `encoding`
+/// is given), its comment and obj_info lines and its vertex property order; attributes the
+/// source did not have follow in table order. Otherwise: binary little endian, x y z, then
+/// the attributes in table order. Other elements of the source (faces...) are not kept.
 /// Throws IoError "<file>: <problem>" for a non-finite position, an attribute whose size
 /// differs from the number of points, an attribute name that cannot appear in a PLY header
 /// (empty, whitespace, duplicate, x/y/z) or a write failure.
 void write_ply(const std::filesystem::path& file, const PointTable& table,
-               PlyEncoding encoding = PlyEncoding::BinaryLittleEndian);
+               std::optional<PlyEncoding> encoding = std::nullopt);
 
 /// write_ply a chunk at a time: the header declares `count` points, of the position type
 /// and attributes of `schema` (its values are ignored). Names are checked when it opens;
@@ -42,6 +44,6 @@ void write_ply(const std::filesystem::path& file, const PointTable& table,
 /// point).
 std::unique_ptr<PointChunkWriter> open_ply_writer(const std::filesystem::path& file,
                                                   const PointTable& schema, std::uint64_t count,
-                                                  PlyEncoding encoding = PlyEncoding::BinaryLittleEndian);
+                                                  std::optional<PlyEncoding> encoding = std::nullopt);
 
 }  // namespace pointfair::io

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include "pointfair/io/ply.hpp"
 #include "pointfair/io/point_chunks.hpp"
@@ -11,7 +12,8 @@
 namespace pointfair::io {
 
 struct WriteOptions {
-  PlyEncoding ply_encoding = PlyEncoding::BinaryLittleEndian;
+  /// PLY encoding; empty: the source's (PointTable::ply), else binary little endian.
+  std::optional<PlyEncoding> ply_encoding;
   /// When not empty, write_points refuses to write onto this file (see require_distinct).
   std::filesystem::path input;
 };

@@ -62,6 +62,48 @@ struct LasMetadata {
   std::vector<LasRecord> records;
 };
 
+/// How a PLY file is encoded.
+enum class PlyEncoding { Ascii, BinaryLittleEndian, BinaryBigEndian };
+
+/// One column of a text point file, as the reader saw it.
+struct TextColumn {
+  /// The attribute fed by this column, or "x", "y", "z" for a coordinate.
+  std::string name;
+  /// 0, 1, 2 for the x, y, z column; -1 for an attribute.
+  int axis = -1;
+  /// The header field as written (quotes kept); empty for a file without a header.
+  std::string header;
+  /// Digits after the decimal point of the first row's value when it was written in plain
+  /// fixed notation ("12.500" gives 3, "7" gives 0); -1 otherwise (an exponent, "nan").
+  /// The writer prints a value with this many digits when that text reads back as the same
+  /// double, so unchanged values come back as the same text.
+  int decimals = -1;
+};
+
+/// The layout of a text point file, kept by read_xyz so that write_xyz reproduces it.
+struct TextLayout {
+  /// The first content line named the columns. Without it the names were guessed
+  /// (field_3, or nx ny nz for 6 columns) and say nothing of what the columns hold.
+  bool header = false;
+  /// The text between the first two fields of the first data row: " ", "\t", ",", ", ", ";"...
+  std::string separator = " ";
+  /// "\r\n" when the first line ended so, else "\n".
+  std::string line_end = "\n";
+  /// The file opened with a line holding the point count (as many .pts files do).
+  bool count_line = false;
+  /// Every column of the file, in file order.
+  std::vector<TextColumn> columns;
+};
+
+/// What a PLY file said about itself beyond the vertex values, so that write_ply keeps it.
+struct PlyLayout {
+  PlyEncoding encoding = PlyEncoding::BinaryLittleEndian;
+  /// The header's "comment ..." and "obj_info ..." lines, as written, in order.
+  std::vector<std::string> header_lines;
+  /// The vertex properties in file order, x, y and z included.
+  std::vector<std::string> properties;
+};
+
 /// Positions plus named attributes, in file order. Attributes keep the order in which they
 /// appear in the file; writers emit them in that order after x, y, z.
 struct PointTable {
@@ -75,6 +117,10 @@ struct PointTable {
   /// Header fields, point format and records of a LAS source; write_las keeps them. Empty
   /// for other sources.
   std::optional<LasMetadata> las;
+  /// Columns, header, separator and number format of a text source; write_xyz keeps them.
+  std::optional<TextLayout> text;
+  /// Encoding, comments and property order of a PLY source; write_ply keeps them.
+  std::optional<PlyLayout> ply;
 
   std::size_t size() const { return positions.size(); }
   /// The attribute called `name`, or nullptr.

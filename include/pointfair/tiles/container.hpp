@@ -24,6 +24,8 @@ inline constexpr const char* original_index = "/points/original_index";
 inline constexpr const char* attributes = "/points/attributes";
 /// A LAS source's VLRs and EVLRs (table, names, payload), Extra Bytes descriptors, GUID.
 inline constexpr const char* las_records = "/points/las_records";
+/// A text or PLY source's layout (io::encode_source_layout), bytes: kept by an export.
+inline constexpr const char* source_layout = "/points/source_layout";
 inline constexpr const char* tiles = "/tiles";
 inline constexpr const char* tile_offsets = "/tiles/offsets";
 inline constexpr const char* tile_bounds = "/tiles/bounds";
@@ -55,7 +57,8 @@ void write_container(const std::filesystem::path& file, const io::PointTable& ta
                      const ImportOptions& options = {});
 
 /// The LAS quantization (scale, offset) and format of `table` (when it has them) as
-/// attributes of /points/positions and /points, written after /points/positions exists.
+/// attributes of /points/positions and /points, and its text or PLY layout as
+/// layout::source_layout, written after /points/positions exists.
 void write_source_format(h5::File& file, const io::PointTable& table);
 /// Reads them back into `table` (nothing when the container has none). Throws IoError for
 /// values out of range.
