@@ -47,10 +47,12 @@ std::string to_string(ColourBy colour) {
 void add_method_options(ArgumentParser& p, SmoothParams& s, FinishOptions* finish) {
   p.flag("paper",
          "The method as the paper states it: --cutoff-origin point --normal pca --tau 0.5 "
-         "--steps 100 --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0" +
+         "--steps 100 --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0 "
+         "--feature-threshold lambda" +
              std::string(finish != nullptr ? " --no-quadric-finish" : "") + ". Options after it override it.",
          [&s, finish] {
            s = paper_smooth_params(s);
+           s.flow.features.scale = FeatureScale::Lambda;
            if (finish != nullptr) finish->quadric = false;
          });
   p.value("k", "N|auto",
@@ -171,9 +173,28 @@ void add_method_options(ArgumentParser& p, SmoothParams& s, FinishOptions* finis
           });
   p.value("edge-quotient", "Q", "Edge quotient threshold Q in [0, 1] (dimensionless). Default 0.5.",
           [&s](std::string_view v) { s.flow.features.quotient = parse_double(v, "--edge-quotient"); });
-  p.value("feature-threshold", "CURVATURE",
-          "Curvature threshold (1/length) of feature detection; 0 = use lambda. Default 0.",
-          [&s](std::string_view v) { s.flow.features.threshold = parse_double(v, "--feature-threshold"); });
+  p.value("feature-threshold", "auto|lambda|CURVATURE",
+          "Curvature threshold of feature detection. 'auto': --feature-turn over each point's "
+          "neighbourhood radius (its farthest neighbour), so that a point is a feature where the "
+          "surface turns by more than that angle across its neighbourhood, whatever the rest of "
+          "the cloud is (flat ground stays smooth). 'lambda': the flow's lambda, relative to the "
+          "cloud's median curvature (the rule before 'auto'; on a mostly flat scan its residual "
+          "noise then reads as edges). A number: that curvature (1/length) everywhere. "
+          "Default auto (--paper: lambda).",
+          [&s](std::string_view v) {
+            s.flow.features.threshold = 0.0;
+            if (v == "auto") s.flow.features.scale = FeatureScale::Spacing;
+            else if (v == "lambda") s.flow.features.scale = FeatureScale::Lambda;
+            else {
+              s.flow.features.threshold = parse_double(v, "--feature-threshold");
+              if (!(s.flow.features.threshold > 0.0))
+                throw UsageError("--feature-threshold must be positive, 'auto' or 'lambda'");
+            }
+          });
+  p.value("feature-turn", "RADIANS",
+          "With --feature-threshold auto: the turn of the normal over one neighbourhood radius "
+          "that makes a feature (radians; 0.35 is about 20 degrees). Default 0.35.",
+          [&s](std::string_view v) { s.flow.features.turn = parse_double(v, "--feature-turn"); });
   p.flag("feature-gated",
          "Apply the cut-off only at detected feature points (edges, corners); other points "
          "flow isotropically. Default off.",
