@@ -42,7 +42,7 @@ struct FeatureParams {
   FeatureScale scale = FeatureScale::Spacing;
   /// FeatureScale::Spacing: the normal turn (radians) over one neighbourhood radius that makes
   /// a feature, threshold turn / r_i. 0 makes every curved point a feature.
-  double turn = 0.35;
+  double turn = 0.25;
 
   void validate() const;
 };

@@ -193,7 +193,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s, FinishOptions* finis
           });
   p.value("feature-turn", "RADIANS",
           "With --feature-threshold auto: the turn of the normal over one neighbourhood radius "
-          "that makes a feature (radians; 0.35 is about 20 degrees). Default 0.35.",
+          "that makes a feature (radians; 0.25 is about 14 degrees). Default 0.25.",
           [&s](std::string_view v) { s.flow.features.turn = parse_double(v, "--feature-turn"); });
   p.flag("feature-gated",
          "Apply the cut-off only at detected feature points (edges, corners); other points "
