@@ -48,9 +48,11 @@ PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
   const bool gated = params.feature_gated && params.features.mode != FeatureMode::None;
   if (with_curvature || gated) {
     s.curvature = compute_curvature(p, s.frame, neighbors, points, params.weingarten);
-    const double threshold = params.features.threshold > 0.0 ? params.features.threshold : lambda;
+    const double radius = params.features.threshold > 0.0 || params.features.scale == FeatureScale::Lambda
+                              ? 0.0
+                              : neighborhood_radius(p, neighbors, points);
     s.feature = classify_feature(s.curvature, params.features.mode, params.features.quotient,
-                                 threshold);
+                                 feature_threshold(params.features, lambda, radius));
   }
   Flow flow = params.flow;
   if (gated && s.feature == FeatureClass::Smooth) flow = Flow::Isotropic;

@@ -32,6 +32,7 @@ SmoothParams paper_smooth_params(SmoothParams base) {
   if (base.neighbors.k == 0) base.neighbors.k = kAutoKMin;
   base.finish.reset();
   base.placement = Placement::Free;
+  base.flow.features.scale = FeatureScale::Lambda;
   return base;
 }
 

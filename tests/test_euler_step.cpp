@@ -224,6 +224,7 @@ TEST(EulerStep, MatchesReferenceStep) {
       o.normal_only = c.normal_only;
       o.gated = c.gated;
       o.quotient = 0.5;
+      o.feature_turn = params.features.turn;
       const std::vector<Vec3> fast = step(points, n, params, lambda);
       const std::vector<Vec3> ref = test::ref::euler_step(points, rows, o);
       EXPECT_LE(test::max_distance(fast, ref), kRefTol * diag) << c.name << " tau " << tau;
@@ -594,8 +595,14 @@ TEST(EulerStep, EvaluatePointReportsState) {
     // Normal-only motion: displacement = tau <A, n> n.
     EXPECT_LE((s.displacement - 0.7 * s.laplacian.dot(s.frame.normal) * s.frame.normal).norm(), 1e-15);
     EXPECT_LE(s.displacement.cross(s.frame.normal).norm(), 1e-15);
-    // The class uses lambda as threshold when features.threshold is 0.
-    EXPECT_EQ(s.feature, classify_feature(s.curvature, FeatureMode::EdgeQuotient, 0.5, 20.0));
+    // With features.threshold 0 the class reads turn / (the neighbourhood radius), or
+    // lambda under FeatureScale::Lambda.
+    const double radius = neighborhood_radius(points[i], n.of(i), points);
+    EXPECT_EQ(s.feature, classify_feature(s.curvature, FeatureMode::EdgeQuotient, 0.5, params.features.turn / radius));
+    FlowParams by_lambda = params;
+    by_lambda.features.scale = FeatureScale::Lambda;
+    EXPECT_EQ(evaluate_point(points[i], n.of(i), points, by_lambda, 20.0, true).feature,
+              classify_feature(s.curvature, FeatureMode::EdgeQuotient, 0.5, 20.0));
     const PointState lean = evaluate_point(points[i], n.of(i), points, params, 20.0, false);
     EXPECT_FALSE(lean.curvature.valid) << "curvature only when asked or needed";
     EXPECT_EQ(lean.displacement, s.displacement);

@@ -111,10 +111,11 @@ TEST(Placement, IsIgnoredWithoutTheFinish) {
   EXPECT_FALSE(ra.placed_along_normal);
 }
 
-TEST(Placement, PaperParamsUseTheFreeFlowWithoutTheFinish) {
+TEST(Placement, PaperParamsUseTheFreeFlowWithoutTheFinishAndLambdaFeatures) {
   const SmoothParams p = paper_smooth_params();
   EXPECT_FALSE(p.finish.has_value());
   EXPECT_EQ(p.placement, Placement::Free);
+  EXPECT_EQ(p.flow.features.scale, FeatureScale::Lambda);
 }
 
 }  // namespace

@@ -122,8 +122,8 @@ std::string_view to_string(SmoothStage stage);
 /// The method as the paper states it, on top of `base` (its neighbourhoods, lambda and
 /// feature settings are kept): the cut-off's curvatures from the point itself, PCA planes,
 /// tau 0.5, 100 steps, no automatic stop, no shrinkage compensation, no automatic k (the
-/// paper sets k by hand: an automatic k becomes 16, a given one is kept), no finish and the
-/// free flow's positions. The CLI's --paper.
+/// paper sets k by hand: an automatic k becomes 16, a given one is kept), no finish, the
+/// free flow's positions and feature classes thresholded by lambda. The CLI's --paper.
 SmoothParams paper_smooth_params(SmoothParams base = {});
 
 /// `params` with neighbors.k resolved: automatic_k(input) when it is 0.

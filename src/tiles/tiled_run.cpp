@@ -24,6 +24,10 @@ std::string parameters_key(const SmoothParams& p) {
   // Named only when on, so that runs started before these options existed still resume.
   if (p.stop_plateau != 0.0) s << " stop_plateau=" << p.stop_plateau;
   if (p.shrink_compensation != 0.0) s << " shrink_compensation=" << p.shrink_compensation;
+  // Runs from before the spacing rule classified by lambda: they resume with
+  // --feature-threshold lambda (no name), not with the rule that would change their classes.
+  if (p.flow.features.threshold == 0.0 && p.flow.features.scale == FeatureScale::Spacing)
+    s << " feature_scale=spacing feature_turn=" << p.flow.features.turn;
   return s.str();
 }
 
@@ -176,6 +180,9 @@ void Run::create(const fs::path& partial) {
                                                                             : "maxcurv");
   f.set_attribute(layout::run, "edge_quotient", params_.flow.features.quotient);
   f.set_attribute(layout::run, "feature_threshold", params_.flow.features.threshold);
+  f.set_attribute(layout::run, "feature_scale",
+                  params_.flow.features.scale == FeatureScale::Spacing ? "spacing" : "lambda");
+  f.set_attribute(layout::run, "feature_turn", params_.flow.features.turn);
   f.set_attribute(layout::run, "weights",
                   params_.flow.weingarten.weights == AngularWeights::Paper ? "paper" : "uniform");
   f.set_attribute(layout::run, "density_floor", params_.flow.weingarten.density_floor);

@@ -141,6 +141,26 @@ TEST_F(CliTest, PaperPresetReachesTheParametersAndLaterOptionsOverrideIt) {
   EXPECT_NE(paper.find("\"steps\": 1,"), std::string::npos) << paper;
   const std::string mixed = params("--paper --steps 1 --normal robust");
   EXPECT_NE(mixed.find("\"normal\": \"robust\""), std::string::npos) << mixed;
+  // The feature threshold: the spacing rule by default, lambda (a number) under --paper.
+  EXPECT_NE(defaults.find("\"feature_threshold\": \"auto\""), std::string::npos) << defaults;
+  EXPECT_EQ(paper.find("\"feature_turn\""), std::string::npos) << paper;
+  EXPECT_NE(params("--paper --steps 1 --feature-threshold auto").find("\"feature_threshold\": \"auto\""),
+            std::string::npos);
+}
+
+// --feature-threshold: auto, lambda or a positive curvature.
+TEST_F(CliTest, FeatureThresholdTakesAutoLambdaOrACurvature) {
+  const fs::path in = write_cloud("in.ply", 500);
+  EXPECT_NE(smooth_json(in, "--steps 1 --feature-turn 0.5").find("\"feature_turn\": 0.5"), std::string::npos);
+  const std::string fixed = smooth_json(in, "--steps 1 --feature-threshold 2.5");
+  EXPECT_NE(fixed.find("\"feature_threshold\": 2.5"), std::string::npos) << fixed;
+  const std::string by_lambda = smooth_json(in, "--steps 1 --feature-threshold lambda");
+  EXPECT_EQ(by_lambda.find("\"feature_threshold\": \"auto\""), std::string::npos) << by_lambda;
+  for (const char* bad : {"0", "-1", "median"})
+    EXPECT_EQ(run("smooth " + in.string() + " " + (dir_ / "o.ply").string() + " --feature-threshold " + bad).exit_code, 2)
+        << bad;
+  EXPECT_EQ(run("smooth " + in.string() + " " + (dir_ / "o.ply").string() + " --feature-turn -1").exit_code, 2);
+  EXPECT_FALSE(fs::exists(dir_ / "o.ply"));
 }
 
 // --k auto (the default) reports the k it chose; a given k is used as given; --paper fixes 16.

@@ -46,6 +46,8 @@ std::map<std::string, std::string> library_defaults() {
       {"robust-bound", text(p.flow.robust.inlier_bound)},
       {"rebuild-every", text(p.rebuild_interval)},
       {"edge-quotient", text(p.flow.features.quotient)},
+      {"feature-threshold", p.flow.features.scale == FeatureScale::Spacing ? "auto" : "lambda"},
+      {"feature-turn", text(p.flow.features.turn)},
       {"density-floor", text(p.flow.weingarten.density_floor)},
       {"weights", p.flow.weingarten.weights == AngularWeights::Paper ? "paper" : "uniform"},
       {"move", p.placement == Placement::AlongNormal ? "normal" : "free"},

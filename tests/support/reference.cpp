@@ -153,7 +153,10 @@ std::vector<Vec3> euler_step(std::span<const Vec3> points,
     Cut cut = o.cut;
     if (o.gated) {
       const Weingarten w = weingarten(p, nbs[i], points, f, o.paper_weights, o.density_floor);
-      if (feature_class(w.k1, w.k2, true, o.quotient, o.lambda) == 0) cut = Cut::None;
+      double radius2 = 0.0;
+      for (const Index j : nbs[i]) radius2 = std::max(radius2, distance2(points[j], p));
+      const double threshold = o.feature_turn > 0.0 ? o.feature_turn / std::sqrt(radius2) : o.lambda;
+      if (feature_class(w.k1, w.k2, true, o.quotient, threshold) == 0) cut = Cut::None;
     }
     // The cut-off reads kappa from `origin`; the motion is still toward p_j - p.
     Vec3 a = Vec3::Zero();

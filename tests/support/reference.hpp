@@ -113,6 +113,9 @@ struct StepOptions {
   /// Feature gating with the edge-quotient mode: smooth points use the isotropic Laplacian.
   bool gated = false;
   double quotient = 0.5;
+  /// Threshold of the gating's classes: > 0 this turn over the distance to the farthest
+  /// neighbour (FeatureScale::Spacing), 0 lambda (FeatureScale::Lambda).
+  double feature_turn = 0.0;
   bool paper_weights = true;
   double density_floor = 0.05;
 };

@@ -60,7 +60,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
   p.flag("paper",
          "The method as the paper states it: --cutoff-origin point --normal pca --tau 0.5 "
          "--steps 100 --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0 "
-         "--no-quadric-finish --move free. Options after it override it.",
+         "--feature-threshold lambda --no-quadric-finish --move free. Options after it override it.",
          [&s] { s = paper_smooth_params(s); });
   p.value("move", "normal|free",
           "Where each point goes: 'normal' moves its input position along the surface normal "
@@ -191,9 +191,28 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           });
   p.value("edge-quotient", "Q", "Edge quotient threshold Q in [0, 1] (dimensionless). Default 0.5.",
           [&s](std::string_view v) { s.flow.features.quotient = parse_double(v, "--edge-quotient"); });
-  p.value("feature-threshold", "CURVATURE",
-          "Curvature threshold (1/length) of feature detection; 0 = use lambda. Default 0.",
-          [&s](std::string_view v) { s.flow.features.threshold = parse_double(v, "--feature-threshold"); });
+  p.value("feature-threshold", "auto|lambda|CURVATURE",
+          "Curvature threshold of feature detection. 'auto': --feature-turn over each point's "
+          "neighbourhood radius (its farthest neighbour), so that a point is a feature where the "
+          "surface turns by more than that angle across its neighbourhood, whatever the rest of "
+          "the cloud is (flat ground stays smooth). 'lambda': the flow's lambda, relative to the "
+          "cloud's median curvature (the rule before 'auto'; on a mostly flat scan its residual "
+          "noise then reads as edges). A number: that curvature (1/length) everywhere. "
+          "Default auto (--paper: lambda).",
+          [&s](std::string_view v) {
+            s.flow.features.threshold = 0.0;
+            if (v == "auto") s.flow.features.scale = FeatureScale::Spacing;
+            else if (v == "lambda") s.flow.features.scale = FeatureScale::Lambda;
+            else {
+              s.flow.features.threshold = parse_double(v, "--feature-threshold");
+              if (!(s.flow.features.threshold > 0.0))
+                throw UsageError("--feature-threshold must be positive, 'auto' or 'lambda'");
+            }
+          });
+  p.value("feature-turn", "RADIANS",
+          "With --feature-threshold auto: the turn of the normal over one neighbourhood radius "
+          "that makes a feature (radians; 0.25 is about 14 degrees). Default 0.25.",
+          [&s](std::string_view v) { s.flow.features.turn = parse_double(v, "--feature-turn"); });
   p.flag("feature-gated",
          "Apply the cut-off only at detected feature points (edges, corners); other points "
          "flow isotropically. Default off.",

@@ -122,7 +122,9 @@ JsonObject parameters_json(const SmoothParams& p, int k, double eps, double lamb
   j.add("lambda_factor", p.flow.lambda_auto_factor).add("lambda_every_step", p.lambda_every_step);
   j.add("constrain_normal", p.flow.constrain_normal).add("rebuild_every", p.rebuild_interval);
   j.add("features", to_string(p.flow.features.mode)).add("edge_quotient", p.flow.features.quotient);
-  j.add("feature_threshold", p.flow.features.threshold > 0 ? p.flow.features.threshold : lambda);
+  if (p.flow.features.threshold > 0) j.add("feature_threshold", p.flow.features.threshold);
+  else if (p.flow.features.scale == FeatureScale::Lambda) j.add("feature_threshold", lambda);
+  else j.add("feature_threshold", "auto").add("feature_turn", p.flow.features.turn);
   j.add("feature_gated", p.flow.feature_gated);
   j.add("weights", to_string(p.flow.weingarten.weights)).add("density_floor", p.flow.weingarten.density_floor);
   j.add("cutoff_origin", p.flow.cutoff_origin == CutoffOrigin::Plane ? "plane" : "point");
