@@ -240,5 +240,31 @@ TEST_F(Parallel, StopFlagDuringSmoothLeavesTheLastCompletedStep) {
   EXPECT_TRUE(test::bitwise_equal(stopped, two));
 }
 
+// ... and during the finish, the flow's result (no finish pass completed).
+TEST_F(Parallel, StopFlagDuringTheFinishLeavesTheFlowsResult) {
+  const std::vector<Vec3> input = cloud();
+  SmoothParams params;
+  params.steps = 2;
+  params.finish->k = 30;
+  std::atomic<int> flag{0};
+  set_stop_flag(&flag);
+  struct Clear {
+    ~Clear() { set_stop_flag(nullptr); }
+  } clear;
+  SmoothOptions options;
+  std::size_t finish_calls = 0;
+  options.progress = [&](SmoothStage stage, std::size_t, std::size_t) {
+    if (stage == SmoothStage::Finish && finish_calls++ == 0) flag.store(1);
+  };
+  std::vector<Vec3> stopped = input;
+  EXPECT_THROW(smooth(stopped, params, options), Stopped);
+  EXPECT_EQ(finish_calls, 1u) << "the finish went on after the flag";
+  set_stop_flag(nullptr);
+  std::vector<Vec3> flowed = input;
+  params.finish.reset();
+  smooth(flowed, params);
+  EXPECT_TRUE(test::bitwise_equal(stopped, flowed));
+}
+
 }  // namespace
 }  // namespace pointfair
