@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/source_layout.hpp"
 #include "pointfair/version.hpp"
 #include "temporary_file.hpp"
@@ -143,6 +144,7 @@ void read_source_format(const h5::File& f, io::PointTable& table) {
 
 void write_container(const fs::path& file, const io::PointTable& table, const ImportOptions& options) {
   options.tiling.validate();
+  io::require_output_path(file);
   const std::uint64_t n = table.size();
   for (const auto& a : table.attributes) {
     if (a.values.size() != n)
