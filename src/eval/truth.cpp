@@ -13,6 +13,7 @@
 
 #include "pointfair/eval/aabb_tree.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/mesh.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/kd_tree.hpp"
@@ -340,6 +341,7 @@ class EnneperSurface final : public GroundTruth::Surface {
 }  // namespace
 
 TruthSpec read_truth_file(const fs::path& file) {
+  io::require_regular_input(file);  // a named pipe would block the open
   std::ifstream in(file);
   if (!in) fail_file(file, "cannot open");
   std::string line;

@@ -98,6 +98,8 @@ FolderLock::~FolderLock() {
   if (fd_ >= 0) ::close(fd_);
 }
 
+void require_regular_input(const fs::path& path) { detail::require_regular_input(path); }
+
 std::uint64_t digest_update(std::uint64_t state, const void* data, std::size_t size) {
   // Eight bytes at a time, each word mixed in with a multiply and a rotation (the tail is
   // padded with zeros and the length mixed in last).

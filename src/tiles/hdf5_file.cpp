@@ -1,5 +1,7 @@
 // The HDF5 C API, wrapped: handles, datasets by rows, attributes, errors as io::IoError.
 #include "pointfair/tiles/hdf5_file.hpp"
+#include "pointfair/io/file_lock.hpp"
+
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -236,6 +238,7 @@ File File::open(const std::filesystem::path& path, bool writable) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec))
     throw io::IoError(path.string() + ": cannot open: No such file or directory");
+  io::require_regular_input(path);  // libhdf5 would block on a named pipe
   if (H5Fis_hdf5(path.c_str()) <= 0) throw io::IoError(path.string() + ": not an HDF5 file");
   Handle h(H5Fopen(path.c_str(), writable ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT));
   if (!h.valid()) throw io::IoError(path.string() + ": cannot open HDF5 file (damaged or locked)");

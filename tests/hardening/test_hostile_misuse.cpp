@@ -1,6 +1,6 @@
 // Misuse of the pointfair executable: a --resume beside a run that still works or naming
-// another input, a user's files where the run keeps its own, outputs that are not regular
-// files (named pipes, devices).
+// another input, a user's files where the run keeps its own, outputs and inputs that are not
+// regular files (named pipes, devices).
 // Always: a one-line error naming the file, a non-zero exit, nothing of the user's touched,
 // nothing half-written left behind.
 #include <gtest/gtest.h>
@@ -218,6 +218,60 @@ TEST_F(HostileMisuse, OutputsThatAreNotRegularFilesAreRefused) {
   EXPECT_TRUE(is_fifo(dir_ / "pipe.h5"));
   EXPECT_TRUE(fs::is_character_file("/dev/null"));
   EXPECT_EQ(joined(other_files({"in.ply", "scan.h5", "pipe.ply", "pipe.h5"})), "");
+}
+
+// --- (3) inputs that are not regular files ------------------------------------------------
+
+TEST_F(HostileMisuse, InputsThatAreNotRegularFilesAreRefusedWithoutBlocking) {
+  const fs::path scan = write_scan("scan", 1000);
+  const fs::path cloud = write_cloud("cloud.ply", 500);
+  // Named pipes with no writer (an open for reading would block forever) and /dev/zero under
+  // point-file names (endless zeros: no line break, no end).
+  for (const char* name : {"pipe.xyz", "pipe.ply", "pipe.las", "pipe.h5", "pipe.off", "pipe.truth"})
+    ASSERT_EQ(::mkfifo((dir_ / name).c_str(), 0600), 0);
+  fs::create_symlink("/dev/zero", dir_ / "zero.xyz");
+  fs::create_symlink("/dev/zero", dir_ / "zero.ply");
+  const fs::path out = dir_ / "out.ply";
+  const std::vector<std::vector<std::string>> commands = {
+      {"smooth", (dir_ / "pipe.xyz").string(), out.string()},
+      {"smooth", (dir_ / "pipe.ply").string(), out.string(), "--memory-budget", "1K"},
+      {"smooth", (dir_ / "pipe.las").string(), out.string()},
+      {"smooth", (dir_ / "pipe.h5").string(), out.string()},
+      {"smooth", (dir_ / "zero.xyz").string(), out.string()},
+      {"smooth", (dir_ / "zero.xyz").string(), out.string(), "--memory-budget", "1K"},
+      {"curvature", (dir_ / "zero.ply").string(), out.string()},
+      {"import", (dir_ / "zero.xyz").string(), (dir_ / "out.h5").string()},
+      {"export", (dir_ / "pipe.h5").string(), out.string()},
+      {"eval", cloud.string(), "--truth", (dir_ / "pipe.truth").string()},
+      {"eval", cloud.string(), "--truth", (dir_ / "pipe.off").string()},
+      {"eval", (dir_ / "pipe.ply").string(), "--truth", "sphere"},
+  };
+  for (auto args : commands) {
+    const std::string input = args[0] == "eval" && args[3] != "sphere" ? args[3] : args[1];
+    SCOPED_TRACE(args[0] + " " + input);
+    if (args[0] != "eval") args.push_back("--quiet");
+    const Result r = run_within(args, std::chrono::seconds(60));
+    EXPECT_FALSE(r.timed_out) << "the command hung";
+    EXPECT_EQ(r.exit_code, 3) << r.err;
+    expect_one_line_naming(r, fs::path(input).filename().string() + ": is a");
+    EXPECT_NE(r.err.find("not a regular file"), std::string::npos) << r.err;
+  }
+  EXPECT_EQ(joined(other_files({"scan.h5", "cloud.ply", "pipe.xyz", "pipe.ply", "pipe.las", "pipe.h5", "pipe.off", "pipe.truth",
+                                "zero.xyz", "zero.ply"})),
+            "");
+}
+
+TEST_F(HostileMisuse, AnEndlessLineInATextFileIsBounded) {
+  // A regular file of 17 MiB without a line break under a text name: refused at 16 MiB.
+  const fs::path p = dir_ / "zeros.xyz";
+  {
+    std::ofstream f(p, std::ios::binary);
+    const std::string block(1 << 20, '7');
+    for (int i = 0; i < 17; ++i) f << block;
+  }
+  const Result r = run_within({"smooth", p.string(), (dir_ / "out.ply").string(), "--quiet"}, std::chrono::seconds(120));
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  expect_one_line_naming(r, "zeros.xyz: line 1 is longer than 16 MiB");
 }
 
 }  // namespace

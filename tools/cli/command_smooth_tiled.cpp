@@ -202,7 +202,7 @@ int run_smooth_out_of_core(const Args& args) {
       tiles::StreamImportOptions import;
       import.container.tiling.max_tile_points = tile_points_for_budget(ooc.memory_budget, k_bound);
       import.container.source_name = fs::path(input).filename().string();
-      import.container.source_size = fs::file_size(input);
+      import.container.source_size = input_file_size(input);
       import.container.source_digest = digest;
       // The import streams the file within the budget (at least its minimum of 16 MiB).
       import.memory_budget = std::max(ooc.memory_budget, kMinImportBudget);

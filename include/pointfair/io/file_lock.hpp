@@ -48,6 +48,11 @@ class FolderLock {
   int fd_ = -1;
 };
 
+/// Throws IoError "<path>: is a named pipe, not a regular file: ..." (or a device, a socket)
+/// when `path` exists and is not a regular file: what the readers refuse before opening, for
+/// readers that open files themselves (libhdf5). Never blocks.
+void require_regular_input(const std::filesystem::path& path);
+
 /// A 64-bit digest of bytes (not cryptographic: it tells accidental differences apart), as
 /// 16 hex digits. `digest_update` continues `state` (start from kDigestSeed).
 inline constexpr std::uint64_t kDigestSeed = 0x9e3779b97f4a7c15ull;
