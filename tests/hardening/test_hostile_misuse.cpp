@@ -1,6 +1,6 @@
 // Misuse of the pointfair executable: a --resume beside a run that still works or naming
 // another input, a user's files where the run keeps its own, outputs and inputs that are not
-// regular files (named pipes, devices).
+// regular files (named pipes, devices), and a file-size limit with SIGXFSZ at its default.
 // Always: a one-line error naming the file, a non-zero exit, nothing of the user's touched,
 // nothing half-written left behind.
 #include <gtest/gtest.h>
@@ -272,6 +272,39 @@ TEST_F(HostileMisuse, AnEndlessLineInATextFileIsBounded) {
   const Result r = run_within({"smooth", p.string(), (dir_ / "out.ply").string(), "--quiet"}, std::chrono::seconds(120));
   EXPECT_EQ(r.exit_code, 3) << r.err;
   expect_one_line_naming(r, "zeros.xyz: line 1 is longer than 16 MiB");
+}
+
+// --- (4) a file-size limit (ulimit -f) with SIGXFSZ at its default ------------------------
+
+TEST_F(HostileMisuse, AFileSizeLimitIsAClearErrorNotASignal) {
+  const fs::path in = write_cloud("in.ply", 20000);
+  const fs::path scan = write_scan("scan", 20000);
+  const std::string before = slurp(in);
+  const std::vector<std::vector<std::string>> commands = {
+      {"smooth", in.string(), (dir_ / "out.ply").string(), "--steps", "1"},
+      {"smooth", in.string(), (dir_ / "out.ply").string(), "--steps", "1", "--memory-budget", "1M"},
+      {"smooth", scan.string(), (dir_ / "out.h5").string(), "--steps", "1"},
+      {"import", in.string(), (dir_ / "out.h5").string()},
+      {"export", scan.string(), (dir_ / "out.ply").string()},
+      {"curvature", in.string(), (dir_ / "out.ply").string()},
+  };
+  for (auto args : commands) {
+    SCOPED_TRACE(args[0] + " -> " + args[2]);
+    args.push_back("--quiet");
+    const Result r = run_limited(args, rlim_t{200} << 10);
+    EXPECT_EQ(r.exit_code, 3) << r.err;
+    EXPECT_EQ(r.err.find("error: "), 0u) << r.err;
+    EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
+    EXPECT_NE(r.err.find("File too large"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(fs::path(args[2]).filename().string()), std::string::npos) << r.err;
+    EXPECT_EQ(slurp(in), before);
+    // A container run keeps its partial file for --resume (it says so); nothing else stays.
+    if (fs::exists(dir_ / "out.h5.partial")) {
+      EXPECT_NE(r.err.find("--resume"), std::string::npos) << r.err;
+      fs::remove(dir_ / "out.h5.partial");
+    }
+    EXPECT_EQ(joined(other_files({"in.ply", "scan.h5"})), "");
+  }
 }
 
 }  // namespace
