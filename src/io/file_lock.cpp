@@ -21,6 +21,8 @@ using detail::system_error_text;
 
 namespace {
 
+constexpr std::uint64_t kLockedByte = std::uint64_t{1} << 62;
+
 constexpr const char* kInUse =
     "in use by another process (a run holds its lock): wait for that run to end, or stop it; two runs "
     "never share one run file";
@@ -53,9 +55,14 @@ FileLock::FileLock(fs::path path) : path_(std::move(path)) {
       fd_ = -1;
       fail(path_, "exists and is not a regular file: refused");
     }
+    // One byte far beyond any data (2^62): MPI-IO (ROMIO) takes fcntl locks on the ranges it
+    // writes, which an OFD lock on the whole file would block, ranks of the same run
+    // included. Two locks of this byte still exclude each other.
     struct flock lock {};
     lock.l_type = F_WRLCK;
     lock.l_whence = SEEK_SET;
+    lock.l_start = static_cast<off_t>(kLockedByte);
+    lock.l_len = 1;
     if (::fcntl(fd_, F_OFD_SETLK, &lock) != 0) {
       const int error = errno;
       ::close(fd_);

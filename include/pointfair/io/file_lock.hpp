@@ -8,7 +8,8 @@
 namespace pointfair::io {
 
 /// An exclusive lock on the file `path`, held while the object lives (an open file description
-/// lock, fcntl F_OFD_SETLK on the whole file: it travels with the file when it is renamed, is
+/// lock, fcntl F_OFD_SETLK on byte 2^62, beyond any data, so that it never blocks the
+/// byte-range locks MPI-IO takes on what it writes: it travels with the file when it is renamed, is
 /// dropped by the kernel when the process ends however it ends, and is independent of the
 /// flock() locks libhdf5 takes). Creates `path` (empty) when it does not exist; created()
 /// then says so.
