@@ -186,6 +186,10 @@ void add_row(const FileReader& reader, const Layout& layout,
       fail(reader.path(),
            at_line(reader) + "'" + std::string(fields[column]) + "' is not a number");
     }
+    // Attributes follow the coordinates' rule: finite, and never a number read as another.
+    const bool coordinate = layout.attribute_of[column] == kNone;
+    check_text_value(reader.path(), at_line(reader), fields[column], values[column], ScalarType::Float64,
+                     "column " + std::to_string(column + 1), coordinate);
   }
   Vec3 position;
   for (int c = 0; c < 3; ++c) {
