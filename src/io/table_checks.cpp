@@ -1,6 +1,7 @@
 #include "table_checks.hpp"
 
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include "io_error.hpp"
@@ -17,8 +18,16 @@ void check_table(const std::filesystem::path& file, const PointTable& table, std
     }
   }
   for (std::size_t i = 0; i < table.size(); ++i) check_finite_point(file, table.positions[i], first + i, "point");
-  // No file written holds a value no reader would accept.
+  // No file written holds a value no reader would accept, nor a value its column's type turns
+  // into another (a double beyond float's range in a float column would be written as inf).
   check_attribute_values(file, table, 0, first, "point");
+  for (const Attribute& a : table.attributes) {
+    if (a.type != ScalarType::Float32) continue;
+    for (std::size_t i = 0; i < a.values.size(); ++i)
+      if (std::abs(a.values[i]) > static_cast<double>(std::numeric_limits<float>::max()))
+        fail(file, "point " + std::to_string(first + i) + ": value " + std::to_string(a.values[i]) +
+                       " of attribute '" + a.name + "' is beyond the range of its type, float");
+  }
 }
 
 void require_schema(const std::filesystem::path& file, const PointTable& schema, const PointTable& chunk) {

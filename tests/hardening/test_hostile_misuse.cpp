@@ -308,3 +308,54 @@ TEST_F(HostileMisuse, AFileSizeLimitIsAClearErrorNotASignal) {
 }
 
 }  // namespace
+
+// --- (7) extreme magnitudes through the commands -----------------------------------------
+
+namespace {
+
+TEST_F(HostileMisuse, ExtremeMagnitudesGiveAResultOrAClearError) {
+  // The octahedron's truth (a mesh: the mesh distance) and the sphere's (analytic); clouds at
+  // 1e40, 1e150 and 1e200.
+  ASSERT_EQ(run({"generate", "octahedron", (dir_ / "o.xyz").string(), "--points", "600", "--truth-out",
+                 (dir_ / "o.truth").string()})
+                .exit_code,
+            0);
+  const io::PointTable o = io::read_points(dir_ / "o.xyz");
+  for (const double scale : {1e40, 1e150, 1e200}) {
+    SCOPED_TRACE(scale);
+    io::PointTable t;
+    t.positions = o.positions;
+    for (Vec3& p : t.positions) p *= scale;
+    const fs::path big = dir_ / "big.xyz";
+    io::write_points(big, t);
+    for (const std::string& truth : {(dir_ / "o.truth").string(), std::string("sphere")}) {
+      const Result r = run_within({"eval", big.string(), "--truth", truth}, std::chrono::seconds(120));
+      EXPECT_FALSE(r.timed_out);
+      if (scale > 1e100) {
+        EXPECT_EQ(r.exit_code, 3) << r.err;
+        expect_one_line_naming(r, "big.xyz: point 0 has a coordinate beyond 1e100");
+      } else {
+        EXPECT_EQ(r.exit_code, 0) << r.err;
+      }
+    }
+    for (const std::string command : {"smooth", "curvature"}) {
+      std::vector<std::string> args = {command, big.string(), (dir_ / "out.ply").string(), "--quiet"};
+      if (command == "smooth") args.insert(args.end(), {"--steps", "1", "--attributes"});
+      const Result r = run_within(args, std::chrono::seconds(120));
+      EXPECT_EQ(r.exit_code, 0) << command << ": " << r.err;
+      // A result: finite, with unit normals where the points are not counted degenerate.
+      const io::PointTable out = io::read_points(dir_ / "out.ply");
+      const io::Attribute* nx = out.find("nx");
+      ASSERT_NE(nx, nullptr);
+      if (scale < 1e100) {
+        std::size_t zero = 0;
+        for (std::size_t i = 0; i < out.size(); ++i)
+          zero += nx->values[i] == 0 && out.find("ny")->values[i] == 0 && out.find("nz")->values[i] == 0;
+        EXPECT_EQ(zero, 0u) << command;
+      }
+    }
+  }
+}
+
+}  // namespace
+

@@ -46,7 +46,7 @@ int run_curvature(const Args& args) {
   const double lambda = resolve_lambda(table.positions, neighborhoods, params.flow);
   const PointAttributes attributes =
       compute_attributes(table.positions, neighborhoods, params.flow, lambda);
-  add_result_columns(table, attributes, output, true);
+  add_result_columns(table, attributes, output, true, curvature_type(attributes));
   throw_if_interrupted();
   write_output(output_path, table, output, input);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -104,6 +104,17 @@ int run_eval(const Args& args) {
   io::PointTable clean, input;
   if (!clean_path.empty()) clean = read_input(clean_path, true);
   if (!input_path.empty()) input = read_input(input_path, true);
+  // Coordinates whose squared distances overflow: refused, naming the file.
+  const auto require_magnitude = [](const io::PointTable& table, const std::string& file) {
+    for (std::size_t i = 0; i < table.size(); ++i)
+      if (!(table.positions[i].cwiseAbs().maxCoeff() <= eval::kEvalMaxCoordinate))
+        throw io::IoError(file + ": point " + std::to_string(i) +
+                          " has a coordinate beyond 1e100 in magnitude, where eval's squared distances overflow: "
+                          "rescale the cloud");
+  };
+  require_magnitude(cloud, cloud_path);
+  if (!clean_path.empty()) require_magnitude(clean, clean_path);
+  if (!input_path.empty()) require_magnitude(input, input_path);
   const eval::EvalReport r = eval::evaluate(truth, {cloud.positions, clean.positions, input.positions}, params);
 
   if (output.json) {

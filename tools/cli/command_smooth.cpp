@@ -103,7 +103,7 @@ int run_smooth(const Args& args) {
     const PointAttributes attributes =
         compute_attributes(table.positions, report.neighborhoods, params.flow, report.lambda);
     degenerate_final = attributes.degenerate;
-    add_result_columns(table, attributes, output, output.attributes);
+    add_result_columns(table, attributes, output, output.attributes, curvature_type(attributes));
   }
   const double seconds_attributes = seconds_since(t0);
   throw_if_interrupted();
