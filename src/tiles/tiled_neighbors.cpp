@@ -57,6 +57,15 @@ LocalSet Run::gather_local(std::size_t t, double halo) const {
         if (!p.allFinite())
           file().fail(neighbor_source_, "row " + std::to_string(first + r) + " has a non-finite coordinate");
         bool inside = u == t;
+        // The halos of the other tiles are found through this tile's bounds: a point outside
+        // them (a container that contradicts itself) would silently change the result.
+        for (std::size_t c = 0; c < 3 && inside; ++c) {
+          const double v = p[static_cast<Eigen::Index>(c)];
+          if (!(v >= own[c] && v <= own[c + 3]))
+            file().fail(layout::tile_bounds, "row " + std::to_string(first + r) + " lies outside the bounds of its tile " +
+                                                 std::to_string(t) +
+                                                 ": the container contradicts itself (import the point file again)");
+        }
         if (!inside) {
           inside = true;
           for (std::size_t c = 0; c < 3 && inside; ++c)
