@@ -280,8 +280,8 @@ void Run::load_reference() {
       account(bytes(values) + bytes(chunk.positions) + chunk.attributes.size() * kChunk * sizeof(double));
     }
     if (a == 0 && at != n_)
-      throw ParamError("the neighbour reference " + path.string() + " has " + std::to_string(at) +
-                       " points, the input " + std::to_string(n_));
+      throw ParamError(path.string() + ": has " + std::to_string(at) + " points, " + input_path_.string() + " has " +
+                       std::to_string(n_) + " (--neighbors-from needs the input's points in the same order)");
     for (std::uint64_t first = my_first_row(); first < my_end_row(); first += kScanBlock) {
       const std::uint64_t count = std::min(kScanBlock, my_end_row() - first);
       index.resize(count);

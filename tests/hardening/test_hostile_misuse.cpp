@@ -359,3 +359,40 @@ TEST_F(HostileMisuse, ExtremeMagnitudesGiveAResultOrAClearError) {
 
 }  // namespace
 
+// --- (9) every error names the file --------------------------------------------------------
+
+namespace {
+
+TEST_F(HostileMisuse, EvalGenerateAndReferenceErrorsNameTheirFile) {
+  const fs::path in = write_cloud("in.ply", 500);
+  std::ofstream(dir_ / "one.xyz") << "0 0 0\n";
+  std::ofstream(dir_ / "flat.xyz") << "1 1 1\n1 1 1\n";
+  std::ofstream(dir_ / "empty.ply") << "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
+                                       "property float z\nend_header\n";
+  std::ofstream(dir_ / "flat.off") << "OFF\n3 1 0\n0 0 0\n1 1 1\n2 2 2\n3 0 1 2\n";
+  const std::string one = (dir_ / "one.xyz").string();
+  const struct {
+    std::vector<std::string> args;
+    std::string named;
+  } cases[] = {
+      {{"eval", (dir_ / "empty.ply").string(), "--truth", "sphere"}, "empty.ply"},
+      {{"eval", in.string(), "--truth", "sphere", "--input", one}, "one.xyz"},
+      {{"eval", in.string(), "--truth", "sphere", "--clean", (dir_ / "flat.xyz").string()}, "flat.xyz"},
+      {{"eval", in.string(), "--truth", (dir_ / "empty.ply").string()}, "empty.ply"},
+      {{"generate", "mesh", (dir_ / "g.ply").string(), "--mesh", (dir_ / "flat.off").string()}, "flat.off"},
+      {{"smooth", in.string(), (dir_ / "o.ply").string(), "--neighbors-from", one, "--quiet"}, "one.xyz"},
+      {{"smooth", in.string(), (dir_ / "o.ply").string(), "--neighbors-from", one, "--memory-budget", "1M", "--quiet"},
+       "one.xyz"},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.args[0] + " " + c.args[1] + " ... " + c.named);
+    const Result r = run_within(c.args, std::chrono::seconds(60));
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_NE(r.exit_code, 1) << "an unexpected failure: " << r.err;
+    expect_one_line_naming(r, c.named + ": ");
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "o.ply"));
+  EXPECT_FALSE(fs::exists(dir_ / "g.ply"));
+}
+
+}  // namespace

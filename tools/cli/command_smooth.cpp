@@ -54,8 +54,9 @@ int run_smooth(const Args& args) {
   if (!reference.empty()) {
     reference_positions = read_input(reference, output.quiet).positions;
     if (reference_positions.size() != table.size())
-      throw ParamError("--neighbors-from " + reference + " has " + std::to_string(reference_positions.size()) +
-                       " points, the input " + std::to_string(table.size()));
+      throw ParamError(reference + ": has " + std::to_string(reference_positions.size()) + " points, " + input +
+                       " has " + std::to_string(table.size()) +
+                       " (--neighbors-from needs the input's points in the same order)");
   }
   const double seconds_read = seconds_since(t_start);
   const std::vector<Vec3> before = table.positions;
