@@ -139,12 +139,19 @@ TEST_F(HostileMisuse, AResumeOfAPointFileRunWithAnotherPointFileIsRefused) {
   EXPECT_NE(failed.err.find("kept in .out.ply.pointfair-run"), std::string::npos) << failed.err;
   std::vector<std::string> resume = budget;
   resume.push_back("--resume");
+  const fs::path kept = dir_ / ".out.ply.pointfair-run" / "run.h5.partial";
+  ASSERT_TRUE(fs::exists(kept));
   const Result r = run(smooth(other, out, resume));
   EXPECT_EQ(r.exit_code, 3) << r.err;
   expect_one_line_naming(r, other.string() + ": the interrupted run in");
   EXPECT_FALSE(fs::exists(out));
-  const Result resumed = run(smooth(in, out, resume));
+  // The refused resume loses nothing: the interrupted run is still there, and continues.
+  ASSERT_TRUE(fs::exists(kept));
+  std::vector<std::string> resume_json = resume;
+  resume_json.push_back("--json");
+  const Result resumed = run(smooth(in, out, resume_json));
   EXPECT_EQ(resumed.exit_code, 0) << resumed.err;
+  EXPECT_NE(resumed.out.find("\"resumed_from\""), std::string::npos) << resumed.out;
   EXPECT_TRUE(fs::exists(out));
   EXPECT_EQ(joined(other_files({"in.ply", "other.ply", "out.ply"})), "");
 }

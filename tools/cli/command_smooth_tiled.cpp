@@ -69,11 +69,13 @@ fs::path work_folder_of(const fs::path& output) {
   return output.parent_path() / name;
 }
 
-// Makes or (with --resume) reopens the work folder, and locks it.
-std::unique_ptr<io::FolderLock> open_work_folder(const fs::path& work, bool resume) {
+// Makes or (with --resume) reopens the work folder, and locks it. `existed`: it was there
+// before (an interrupted run's, which this command must never lose).
+std::unique_ptr<io::FolderLock> open_work_folder(const fs::path& work, bool resume, bool& existed) {
   std::error_code ec;
   const bool made = fs::create_directory(work, ec);
   if (ec) throw io::IoError(work.string() + ": cannot create the run's folder: " + ec.message());
+  existed = !made;
   if (!made) {
     const auto status = fs::symlink_status(work, ec);
     if (!fs::is_directory(status))
@@ -171,21 +173,25 @@ int run_smooth_out_of_core(const Args& args) {
     }
     io::require_distinct(input, output_path);
   }
+  bool work_existed = false;
   if (!container_in || !container_out) {
     work = work_folder_of(output_path);
-    work_lock = open_work_folder(work, ooc.resume);
+    work_lock = open_work_folder(work, ooc.resume, work_existed);
   }
-  // The work folder goes when the command fails before its run started (nothing to resume),
-  // or when the run cannot be continued.
+  // The work folder goes when the run is done; when the command fails, only if this command
+  // made it and it holds nothing to resume (or the run cannot be continued). An interrupted
+  // run's folder that a --resume found stays whatever happens before its end.
   struct WorkGuard {
     fs::path work;
+    bool existed = false;
     bool keep = false;
+    bool done = false;
     ~WorkGuard() {
-      if (work.empty()) return;
+      if (work.empty() || (existed && !done)) return;
       std::error_code ec;
-      if (!keep || !fs::exists(work / "run.h5.partial", ec)) remove_work_folder(work);
+      if (done || !keep || !fs::exists(work / "run.h5.partial", ec)) remove_work_folder(work);
     }
-  } guard{work};
+  } guard{work, work_existed};
   if (!container_in) {
     imported = work / "input.h5";
     // What the run continues must be this input: its bytes, not only its size.
@@ -254,7 +260,8 @@ int run_smooth_out_of_core(const Args& args) {
       if (budget == nullptr) throw;
       // The tiles were sized for the budget: only a larger one helps.
       throw ParamError("the memory budget of " + tiles::size_text(budget->budget) + " is too small for " + input +
-                       " (the run needs " + tiles::size_text(budget->needed, true) + "): give a larger --memory-budget");
+                       " (the run needs " + tiles::size_text(budget->needed, true) + "): give a larger --memory-budget" +
+                       (work_existed ? " (the interrupted run stays in " + work.filename().string() + ")" : ""));
     }
     std::error_code ec;
     if (budget == nullptr || !fs::exists(tiles::partial_name(run_output), ec)) throw;
@@ -278,7 +285,7 @@ int run_smooth_out_of_core(const Args& args) {
     ContainerExport exported;
     exported.memory_budget = ooc.memory_budget;
     export_container(run_output, output_path, output, exported, input);
-    guard.keep = false;
+    guard.done = true;
     seconds_write = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   const double seconds_total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
