@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "pointfair/io/atomic_file.hpp"
 #include "interrupt.hpp"
 #include "run_support.hpp"
 #include "pointfair/io/attribute_roles.hpp"
@@ -33,6 +34,8 @@ int run_curvature(const Args& args) {
   if (!parser.parse(args)) return 0;
   params.validate();
   set_thread_count(output.threads);
+  // A named pipe or a device at OUT is refused before any work, not after it.
+  io::require_output_path(output_path);
 
   const auto t0 = std::chrono::steady_clock::now();
   io::PointTable table = read_input(input, output.quiet);

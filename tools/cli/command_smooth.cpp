@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "pointfair/io/atomic_file.hpp"
 #include "interrupt.hpp"
 #include "progress.hpp"
 #include "run_support.hpp"
@@ -47,6 +48,8 @@ int run_smooth(const Args& args) {
   if (!parser.parse(args)) return 0;
   params.validate();
   set_thread_count(output.threads);
+  // A named pipe or a device at OUT is refused before any work, not after it.
+  io::require_output_path(output_path);
 
   const auto t_start = std::chrono::steady_clock::now();
   io::PointTable table = read_input(input, output.quiet);
