@@ -20,6 +20,21 @@ struct SymmetricCovariance {
 [[gnu::always_inline]] inline SymmetricCovariance symmetric_covariance(double a00, double a01,
                                                                       double a02, double a11,
                                                                       double a12, double a22) {
+  // The iteration and the normal below form products of up to four entries (slope^2 ~ trace^4,
+  // the rows' cross products squared): far from 1 they overflow (coordinates around 1e40 gave
+  // zero normals counted as valid) or underflow. A trace outside [2^-200, 2^200] is brought to
+  // about 1 by a power of two, which is exact and changes no direction; within it, nothing
+  // changes (the same bits as before).
+  const double trace = a00 + a11 + a22;
+  if (trace > 0.0 && std::isfinite(trace) && (trace > 0x1p200 || trace < 0x1p-200)) {
+    const double scale = std::ldexp(1.0, -std::ilogb(trace));
+    a00 *= scale;
+    a01 *= scale;
+    a02 *= scale;
+    a11 *= scale;
+    a12 *= scale;
+    a22 *= scale;
+  }
   SymmetricCovariance c{a00, a01, a02, a11, a12, a22};
   c.tr = a00 + a11 + a22;
   c.m2 = (a00 * a11 - a01 * a01) + (a00 * a22 - a02 * a02) + (a11 * a22 - a12 * a12);

@@ -52,11 +52,14 @@ WeingartenMap weingarten_map(const Vec3& p, const Frame& frame, std::span<const 
     s_kt += (w * kappa) * tt;
     s_t += w * tt;
   }
-  if (!(sum_w > 0.0)) return result;
+  // Weights that overflow (a density floor near the smallest double, e.g. 1e-310, under a
+  // direction of zero density) leave no usable map: the point is degenerate, never NaN.
+  if (!(sum_w > 0.0) || !std::isfinite(sum_w) || !std::isfinite(sum_wk)) return result;
   const double two_pi = 2.0 * std::numbers::pi;
   const double s = two_pi / sum_w;
   result.mean = s * sum_wk / two_pi;
   result.map = (s / std::numbers::pi) * (2.0 * s_kt - result.mean * s_t);
+  if (!std::isfinite(result.mean) || !result.map.allFinite()) return WeingartenMap{};
   result.valid = true;
   return result;
 }

@@ -2,6 +2,7 @@
 //
 // Exit codes: 0 success; 1 unexpected failure; 2 bad command line or parameter;
 // 3 input/output error (the message names the file); 130/143 interrupted by SIGINT/SIGTERM.
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <iostream>
@@ -51,6 +52,10 @@ int main(int argc, char** argv) {
   const cli::Args args(argv + 2, argv + argc);
   // SIGINT/SIGTERM end a run between steps with exit code 130/143 (cli/interrupt.hpp).
   cli::install_interrupt_handlers();
+  // A file-size limit (ulimit -f) would end the process with SIGXFSZ at the first write past
+  // it, with no message and temporaries left behind: ignored, the write fails with EFBIG
+  // ("File too large"), which every writer reports naming the file and cleans up after.
+  std::signal(SIGXFSZ, SIG_IGN);
   try {
     if (command == "smooth") return cli::run_smooth(args);
     if (command == "curvature") return cli::run_curvature(args);

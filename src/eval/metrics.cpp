@@ -59,6 +59,15 @@ EvalReport evaluate(const GroundTruth& truth, const EvalInput& input, const Eval
   params.validate();
   const auto cloud = input.cloud;
   require(!cloud.empty(), "cannot evaluate an empty cloud");
+  const auto require_magnitude = [](std::span<const Vec3> points, const char* which) {
+    for (std::size_t i = 0; i < points.size(); ++i)
+      require(points[i].cwiseAbs().maxCoeff() <= kEvalMaxCoordinate,
+              std::string("point ") + std::to_string(i) + " of the " + which +
+                  " has a coordinate beyond 1e100 in magnitude, where squared distances overflow: rescale it");
+  };
+  require_magnitude(cloud, "cloud");
+  require_magnitude(input.reference, "reference cloud");
+  require_magnitude(input.input, "input cloud");
   require(input.input.empty() || input.input.size() == cloud.size(),
           "the input cloud must have as many points as the evaluated cloud");
   const std::size_t n = cloud.size();

@@ -12,7 +12,9 @@
 #include <unordered_map>
 
 #include "pointfair/eval/aabb_tree.hpp"
+#include "pointfair/eval/metrics.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/mesh.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/kd_tree.hpp"
@@ -47,6 +49,10 @@ class MeshSurface final : public GroundTruth::Surface {
   MeshSurface(TriangleMesh mesh, bool flat_faces, double sharp_angle_degrees)
       : mesh_(std::move(mesh)), flat_faces_(flat_faces) {
     require(!mesh_.triangles.empty(), "ground-truth mesh has no triangles");
+    for (std::size_t v = 0; v < mesh_.vertices.size(); ++v)
+      require(mesh_.vertices[v].cwiseAbs().maxCoeff() <= kEvalMaxCoordinate,
+              "vertex " + std::to_string(v) +
+                  " has a coordinate beyond 1e100 in magnitude, where squared distances overflow: rescale the mesh");
     const std::size_t nt = mesh_.triangles.size();
     face_normals_.resize(nt);
     std::vector<Eigen::AlignedBox3d> boxes(nt);
@@ -340,6 +346,7 @@ class EnneperSurface final : public GroundTruth::Surface {
 }  // namespace
 
 TruthSpec read_truth_file(const fs::path& file) {
+  io::require_regular_input(file);  // a named pipe would block the open
   std::ifstream in(file);
   if (!in) fail_file(file, "cannot open");
   std::string line;

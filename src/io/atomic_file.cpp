@@ -84,13 +84,25 @@ void sync_directory(const fs::path& target) {
 
 }  // namespace
 
+void require_output_path(const fs::path& output) {
+  struct stat existing {};
+  if (::stat(output.c_str(), &existing) != 0) return;
+  if (S_ISDIR(existing.st_mode)) fail(output, "cannot write: " + system_error_text(EISDIR));
+  if (S_ISREG(existing.st_mode)) return;
+  const char* kind = S_ISFIFO(existing.st_mode)  ? "a named pipe"
+                     : S_ISCHR(existing.st_mode) ? "a character device"
+                     : S_ISBLK(existing.st_mode) ? "a block device"
+                     : S_ISSOCK(existing.st_mode) ? "a socket"
+                                                  : "not a file";
+  fail(output, std::string("exists and is not a regular file (") + kind +
+                   "): refused; outputs replace regular files only");
+}
+
 AtomicFile::AtomicFile(fs::path target) : target_(std::move(target)) {
   if (target_.filename().empty()) fail(target_, "not a file name");
+  require_output_path(target_);
   struct stat existing {};
   const bool target_exists = ::stat(target_.c_str(), &existing) == 0;
-  if (target_exists && S_ISDIR(existing.st_mode)) {
-    fail(target_, "cannot write: " + system_error_text(EISDIR));
-  }
   const int fd = create_temporary(target_, temporary_);
   if (target_exists) ::fchmod(fd, existing.st_mode & 07777);
   file_ = ::fdopen(fd, "wb");

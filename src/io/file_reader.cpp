@@ -1,6 +1,8 @@
 #include "file_reader.hpp"
 
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -14,20 +16,56 @@ namespace pointfair::io::detail {
 
 namespace {
 constexpr std::size_t kBufferSize = std::size_t{1} << 20;
+// The longest line read: a text line of 65,535 attributes of 25 characters each fits many
+// times over; more is not a point file (e.g. binary data under a text file's name).
+constexpr std::size_t kMaxLine = std::size_t{16} << 20;
+}
+
+std::string non_regular_kind(unsigned mode) {
+  return S_ISFIFO(mode)  ? "a named pipe"
+         : S_ISCHR(mode) ? "a character device"
+         : S_ISBLK(mode) ? "a block device"
+         : S_ISSOCK(mode) ? "a socket"
+         : S_ISDIR(mode)  ? "a folder"
+                          : "not a regular file";
+}
+
+void require_regular_input(const std::filesystem::path& path) {
+  struct stat info {};
+  if (::stat(path.c_str(), &info) != 0) return;  // the open that follows names the reason
+  if (S_ISDIR(info.st_mode)) fail(path, "cannot open: " + system_error_text(EISDIR));
+  if (!S_ISREG(info.st_mode))
+    fail(path, "is " + non_regular_kind(info.st_mode) +
+                   ", not a regular file: inputs are read from regular files (copy it to one first)");
 }
 
 FileReader::FileReader(std::filesystem::path path) : path_(std::move(path)) {
-  file_ = std::fopen(path_.c_str(), "rb");
-  if (file_ == nullptr) fail(path_, "cannot open: " + system_error_text(errno));
+  // Opened without blocking, so that a named pipe with no writer cannot hang the open; only a
+  // regular file is read (a pipe or /dev/zero has no size to check counts against, and may
+  // never end).
+  const int fd = ::open(path_.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) fail(path_, "cannot open: " + system_error_text(errno));
   struct stat info {};
-  if (::fstat(::fileno(file_), &info) != 0) {
+  if (::fstat(fd, &info) != 0) {
     const int error = errno;
-    std::fclose(file_);
+    ::close(fd);
     fail(path_, "cannot open: " + system_error_text(error));
   }
   if (S_ISDIR(info.st_mode)) {
-    std::fclose(file_);
+    ::close(fd);
     fail(path_, "cannot open: " + system_error_text(EISDIR));
+  }
+  if (!S_ISREG(info.st_mode)) {
+    ::close(fd);
+    fail(path_, "is " + non_regular_kind(info.st_mode) +
+                    ", not a regular file: inputs are read from regular files (copy it to one first)");
+  }
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  file_ = ::fdopen(fd, "rb");
+  if (file_ == nullptr) {
+    const int error = errno;
+    ::close(fd);
+    fail(path_, "cannot open: " + system_error_text(error));
   }
   size_ = static_cast<std::uint64_t>(info.st_size);
   // This class does its own buffering; a second stdio buffer would only add copies.
@@ -60,7 +98,12 @@ bool FileReader::refill() {
     end_ -= begin_;
     begin_ = 0;
   }
-  if (end_ == buffer_.size()) buffer_.resize(buffer_.size() * 2);  // a very long line
+  if (end_ == buffer_.size()) {  // a very long line
+    if (buffer_.size() >= kMaxLine)
+      fail(path_, "line " + std::to_string(line_number_ + 1) + " is longer than " +
+                      std::to_string(kMaxLine >> 20) + " MiB: not a text point file");
+    buffer_.resize(buffer_.size() * 2);
+  }
   const std::size_t got = read_from_file(buffer_.data() + end_, buffer_.size() - end_);
   end_ += got;
   return got > 0;

@@ -5,10 +5,18 @@
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
+#include <string>
 #include <string_view>
 #include <vector>
 
 namespace pointfair::io::detail {
+
+/// "a named pipe", "a character device", ... for a stat mode that is not a regular file's.
+std::string non_regular_kind(unsigned mode);
+
+/// Throws IoError "<path>: is a named pipe, not a regular file: ..." when `path` exists and is
+/// not a regular file (folders: "cannot open: Is a directory"). Does not open it.
+void require_regular_input(const std::filesystem::path& path);
 
 class FileReader {
  public:

@@ -224,6 +224,7 @@ void read_points_into(FileReader& reader, const LasHeader& h, const std::vector<
         }
       }
     }
+    check_attribute_values(file, table, at, first + done, "point");
   }
 }
 

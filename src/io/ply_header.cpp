@@ -126,6 +126,11 @@ PlyHeader read_ply_header(FileReader& reader) {
   if (reader.size() == 0) fail(reader.path(), "empty file");
   std::string_view line;
   if (!reader.next_line(line) || trim(line) != "ply") {
+    if (line.starts_with("ply\r"))
+      fail(reader.path(), "line 1: carriage return inside a line (CR-only line endings?): convert the header to LF "
+                          "or CRLF line endings");
+    if (line.starts_with("\xEF\xBB\xBFply"))
+      fail(reader.path(), "line 1: a UTF-8 byte-order mark before 'ply': remove it (a PLY file starts with 'ply')");
     fail(reader.path(), "not a PLY file (missing 'ply' magic)");
   }
   PlyHeader header;

@@ -131,6 +131,7 @@ void read_binary_vertices(FileReader& reader, const PlyElement& vertex, const Ve
     for (std::size_t i = at; i < at + records; ++i) {
       check_finite_point(file, table.positions[i], first + (i - start));
     }
+    check_attribute_values(file, table, at, first + done, "vertex");
   }
 }
 
@@ -193,6 +194,8 @@ void read_ascii_vertices(FileReader& reader, const PlyElement& vertex, const Ver
                        std::string(scalar_name(column.type)) + " (property '" + *column.name +
                        "')");
       }
+      check_text_value(file, at_line(reader), token, value, column.type, "property '" + *column.name + "'",
+                       column.coordinate >= 0);
       if (column.coordinate >= 0) {
         position[column.coordinate] = value;
       } else {

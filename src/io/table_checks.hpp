@@ -30,4 +30,19 @@ void check_finite(const std::filesystem::path& file, const std::vector<Vec3>& po
 void check_finite_point(const std::filesystem::path& file, const Vec3& position, std::uint64_t index,
                         std::string_view noun = "vertex", std::string_view suffix = {});
 
+/// The one rule for values read (docs/hostile-inputs.md): every value must be finite and
+/// representable in its column's type. Throws IoError "<file>: <where>'<token>' (<what>) is
+/// not a finite number" (nan, inf), "... is beyond the range of float" (a text value that
+/// overflowed to inf), or "... underflows to zero in float" (a text value with a non-zero digit
+/// read as 0). `value` is `token` parsed as `type`; `where` e.g. "line 5: ". With
+/// `only_underflow`, non-finite values are left to another check (coordinates have their own).
+void check_text_value(const std::filesystem::path& file, std::string_view where, std::string_view token,
+                      double value, ScalarType type, std::string_view what, bool only_underflow = false);
+
+/// Throws IoError "<file>: <noun> <index> has a non-finite value (nan) in attribute '<name>'"
+/// for the first non-finite value of a float attribute in rows [from, table.size()); row
+/// `from` is <noun> `first_index`.
+void check_attribute_values(const std::filesystem::path& file, const PointTable& table, std::size_t from,
+                            std::uint64_t first_index, std::string_view noun = "point");
+
 }  // namespace pointfair::io::detail

@@ -27,13 +27,16 @@ namespace {
 
 constexpr std::size_t kTextFlushBytes = std::size_t{1} << 20;
 
-// Splits on ',' or ';' when the line has one (fields trimmed, empty fields kept so they are
-// reported), else on runs of whitespace.
+// Splits on ';' when the line has one, else on ',' when it has one (fields trimmed, empty
+// fields kept so they are reported), else on runs of whitespace. A line with ';' is split on
+// ';' alone: its commas are decimal commas ("1,5;2,25"), which are then refused as such
+// rather than read as more fields.
 void split_fields(std::string_view line, std::vector<std::string_view>& fields) {
   fields.clear();
-  if (line.find_first_of(",;") != std::string_view::npos) {
+  const char* delimiters = line.find(';') != std::string_view::npos ? ";" : ",";
+  if (line.find_first_of(delimiters) != std::string_view::npos) {
     for (;;) {
-      const std::size_t end = line.find_first_of(",;");
+      const std::size_t end = line.find_first_of(delimiters);
       fields.push_back(trim(line.substr(0, end)));
       if (end == std::string_view::npos) break;
       line.remove_prefix(end + 1);
@@ -82,7 +85,7 @@ std::string at_line(const FileReader& reader) {
 // The text between the first two fields of `line` (trimmed): the delimiter with the blanks
 // around it, or the first run of whitespace.
 std::string separator_of(std::string_view line) {
-  std::size_t begin = line.find_first_of(",;");
+  std::size_t begin = line.find(';') != std::string_view::npos ? line.find(';') : line.find(',');
   std::size_t end = begin == std::string_view::npos ? 0 : begin + 1;
   if (begin == std::string_view::npos) {
     begin = 0;
@@ -183,9 +186,15 @@ void add_row(const FileReader& reader, const Layout& layout,
   values.resize(fields.size());
   for (std::size_t column = 0; column < fields.size(); ++column) {
     if (!parse_double(fields[column], values[column])) {
-      fail(reader.path(),
-           at_line(reader) + "'" + std::string(fields[column]) + "' is not a number");
+      const bool decimal_comma = fields[column].find(',') != std::string_view::npos;
+      fail(reader.path(), at_line(reader) + "'" + std::string(fields[column]) + "' is not a number" +
+                              (decimal_comma ? " (decimal commas are not read: write numbers with a decimal point)"
+                                             : ""));
     }
+    // Attributes follow the coordinates' rule: finite, and never a number read as another.
+    const bool coordinate = layout.attribute_of[column] == kNone;
+    check_text_value(reader.path(), at_line(reader), fields[column], values[column], ScalarType::Float64,
+                     "column " + std::to_string(column + 1), coordinate);
   }
   Vec3 position;
   for (int c = 0; c < 3; ++c) {
@@ -226,6 +235,15 @@ class XyzChunkReader final : public PointChunkReader {
         if (declared_count_) continue;
       }
       if (!all_numbers(fields_)) {
+        // A number written with a decimal comma is not a column name.
+        for (const std::string_view field : fields_) {
+          std::string dotted(field);
+          std::replace(dotted.begin(), dotted.end(), ',', '.');
+          double ignored = 0;
+          if (field.find(',') != std::string_view::npos && parse_double(dotted, ignored))
+            fail(file, at_line(reader_) + "'" + std::string(field) +
+                           "' is not a number (decimal commas are not read: write numbers with a decimal point)");
+        }
         text.header = true;
         text.separator = separator_of(line);
         layout_ = layout_from_header(reader_, fields_, schema_);
@@ -273,12 +291,26 @@ class XyzChunkReader final : public PointChunkReader {
   // The next line that is neither blank nor a comment, split into fields_.
   bool next_content_line(std::string_view& line) {
     while (reader_.next_line(line)) {
+      if (reader_.line_number() == 1) check_first_line(line);
       line = trim(line);
+      // A carriage return inside a line: CR-only line endings (classic Mac OS), which would
+      // read the whole file as one line.
+      if (line.find('\r') != std::string_view::npos)
+        fail(reader_.path(), at_line(reader_) +
+                                 "carriage return inside a line (CR-only line endings?): convert the file to LF "
+                                 "or CRLF line endings");
       if (line.empty() || line.front() == '#') continue;
       split_fields(line, fields_);
       return true;
     }
     return false;
+  }
+
+  // A UTF-8 byte-order mark is skipped (and not written back); UTF-16 text is refused.
+  void check_first_line(std::string_view& line) {
+    if (line.starts_with("\xEF\xBB\xBF")) line.remove_prefix(3);
+    if (line.starts_with("\xFF\xFE") || line.starts_with("\xFE\xFF"))
+      fail(reader_.path(), "UTF-16 text is not read: save the file as UTF-8 or ASCII");
   }
 
   void finish(std::uint64_t total) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/source_layout.hpp"
 #include "pointfair/version.hpp"
 #include "temporary_file.hpp"
@@ -143,6 +144,7 @@ void read_source_format(const h5::File& f, io::PointTable& table) {
 
 void write_container(const fs::path& file, const io::PointTable& table, const ImportOptions& options) {
   options.tiling.validate();
+  io::require_output_path(file);
   const std::uint64_t n = table.size();
   for (const auto& a : table.attributes) {
     if (a.values.size() != n)
@@ -340,6 +342,10 @@ io::PointTable read_container(const fs::path& file, const ReadContainerOptions& 
       const h5::Dataset d = f.dataset(path);
       if (d.rows() != n || d.width() != 1) f.fail(path, "expected one value per point");
       table.attributes.push_back({name, h5::to_scalar(d.type()), read_ordered(d, ord)});
+      // The readers' rule (docs/hostile-inputs.md): attribute values are finite.
+      for (std::size_t i = 0; i < table.attributes.back().values.size(); ++i)
+        if (!std::isfinite(table.attributes.back().values[i]))
+          f.fail(path, "value " + std::to_string(i) + " is not finite");
     }
   }
   return table;

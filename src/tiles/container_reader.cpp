@@ -1,6 +1,8 @@
 // A container's points a chunk at a time: see container_reader.hpp.
 #include "pointfair/tiles/container_reader.hpp"
 
+#include <cmath>
+
 #include <algorithm>
 
 #include "pointfair/tiles/container.hpp"
@@ -132,6 +134,9 @@ void ContainerChunkReader::read_range(std::uint64_t first, std::uint64_t count, 
           filled_[slot] += 1;
           break;
         case Kind::Attribute:
+          // The readers' rule (docs/hostile-inputs.md): attribute values are finite.
+          if (!std::isfinite(v[0]))
+            file_->fail(c.data.path(), "row " + std::to_string(first + r) + " has a non-finite value");
           chunk.attributes[c.attribute].values[slot] = v[0];
           break;
         case Kind::Normal:

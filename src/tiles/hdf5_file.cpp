@@ -1,5 +1,10 @@
 // The HDF5 C API, wrapped: handles, datasets by rows, attributes, errors as io::IoError.
 #include "pointfair/tiles/hdf5_file.hpp"
+#include "pointfair/io/file_lock.hpp"
+
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/statvfs.h>
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -236,6 +241,7 @@ File File::open(const std::filesystem::path& path, bool writable) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec))
     throw io::IoError(path.string() + ": cannot open: No such file or directory");
+  io::require_regular_input(path);  // libhdf5 would block on a named pipe
   if (H5Fis_hdf5(path.c_str()) <= 0) throw io::IoError(path.string() + ": not an HDF5 file");
   Handle h(H5Fopen(path.c_str(), writable ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT));
   if (!h.valid()) throw io::IoError(path.string() + ": cannot open HDF5 file (damaged or locked)");
@@ -402,6 +408,25 @@ Dataset File::dataset(std::string_view path) const {
 
 void File::copy_from(const File& source, std::string_view source_path, std::string_view path) {
   const std::string s(source_path), d(path);
+  // libhdf5 1.10 crashes (SIGSEGV in H5T_close_real) cleaning up after a write that fails
+  // inside H5Ocopy. What is copied is at most the source file's size: a file-size limit
+  // (ulimit -f) or a disk without that room fails here instead, with the system's reason.
+  std::error_code ec;
+  const auto needed = std::filesystem::file_size(source.name(), ec);
+  struct stat here {};
+  const int fd = parallel_ ? -1 : descriptor();
+  if (!ec && fd >= 0 && ::fstat(fd, &here) == 0) {
+    const auto after = static_cast<std::uint64_t>(here.st_size) + needed;
+    rlimit limit{};
+    if (::getrlimit(RLIMIT_FSIZE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY && after > limit.rlim_cur)
+      fail(path, "write failed: " + std::string(std::strerror(EFBIG)) + " (copying " + s + " from " +
+                     source.name().string() + " needs " + std::to_string(needed) +
+                     " bytes, beyond the file-size limit of " + std::to_string(limit.rlim_cur) + " bytes)");
+    struct statvfs disk {};
+    if (::fstatvfs(fd, &disk) == 0 && static_cast<std::uint64_t>(disk.f_bavail) * disk.f_frsize < needed)
+      fail(path, "write failed: " + std::string(std::strerror(ENOSPC)) + " (copying " + s + " from " +
+                     source.name().string() + " needs " + std::to_string(needed) + " bytes)");
+  }
   if (H5Ocopy(source.id(), s.c_str(), handle_.get(), d.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
     fail(path, "cannot copy " + s + " from " + source.name().string());
 }

@@ -10,6 +10,7 @@
 #include <optional>
 #include <unordered_map>
 
+#include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/version.hpp"
@@ -516,6 +517,8 @@ void Import::write_metadata(h5::File& f) const {
   f.set_attribute("/", "tool_version", version());
   f.set_attribute("/", "source_name", options_.container.source_name);
   f.set_attribute("/", "source_size_bytes", static_cast<std::int64_t>(options_.container.source_size));
+  if (!options_.container.source_digest.empty())
+    f.set_attribute("/", "source_digest", options_.container.source_digest);
   f.set_attribute("/", "point_count", static_cast<std::int64_t>(n_));
   f.set_attribute("/", "tile_count", static_cast<std::int64_t>(tile_counts_.size()));
 }
@@ -794,6 +797,7 @@ StreamImportReport Import::run() {
 }  // namespace
 
 StreamImportReport import_points(const fs::path& input, const fs::path& output, const StreamImportOptions& options) {
+  io::require_output_path(output);
   return Import(input, output, options).run();
 }
 

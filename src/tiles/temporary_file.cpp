@@ -11,10 +11,15 @@ namespace fs = std::filesystem;
 
 fs::path temporary_name(const fs::path& target, const char* kind) {
   std::random_device rd;
-  std::string name = std::string(".") + target.filename().string();
-  name += std::string(kind) + std::to_string(::getpid());
-  name += std::string("-") + std::to_string(rd());
-  return target.parent_path() / name;
+  // A name nothing has: the pid and a random number, drawn again while a file has it.
+  for (;;) {
+    std::string name = std::string(".") + target.filename().string();
+    name += std::string(kind) + std::to_string(::getpid());
+    name += std::string("-") + std::to_string(rd());
+    fs::path candidate = target.parent_path() / name;
+    std::error_code ec;
+    if (!fs::exists(fs::symlink_status(candidate, ec))) return candidate;
+  }
 }
 
 io::IoError naming_target(const io::IoError& error, const fs::path& target) {

@@ -57,6 +57,15 @@ LocalSet Run::gather_local(std::size_t t, double halo) const {
         if (!p.allFinite())
           file().fail(neighbor_source_, "row " + std::to_string(first + r) + " has a non-finite coordinate");
         bool inside = u == t;
+        // The halos of the other tiles are found through this tile's bounds: a point outside
+        // them (a container that contradicts itself) would silently change the result.
+        for (std::size_t c = 0; c < 3 && inside; ++c) {
+          const double v = p[static_cast<Eigen::Index>(c)];
+          if (!(v >= own[c] && v <= own[c + 3]))
+            file().fail(layout::tile_bounds, "row " + std::to_string(first + r) + " lies outside the bounds of its tile " +
+                                                 std::to_string(t) +
+                                                 ": the container contradicts itself (import the point file again)");
+        }
         if (!inside) {
           inside = true;
           for (std::size_t c = 0; c < 3 && inside; ++c)
@@ -271,8 +280,8 @@ void Run::load_reference() {
       account(bytes(values) + bytes(chunk.positions) + chunk.attributes.size() * kChunk * sizeof(double));
     }
     if (a == 0 && at != n_)
-      throw ParamError("the neighbour reference " + path.string() + " has " + std::to_string(at) +
-                       " points, the input " + std::to_string(n_));
+      throw ParamError(path.string() + ": has " + std::to_string(at) + " points, " + input_path_.string() + " has " +
+                       std::to_string(n_) + " (--neighbors-from needs the input's points in the same order)");
     for (std::uint64_t first = my_first_row(); first < my_end_row(); first += kScanBlock) {
       const std::uint64_t count = std::min(kScanBlock, my_end_row() - first);
       index.resize(count);

@@ -1,6 +1,8 @@
 // The run file and its commit record: created or resumed, shared by the ranks, committed.
 #include "tiled_run.hpp"
 
+#include <cstdio>
+
 namespace pointfair::tiles::detail {
 
 // Every parameter that changes the result, as one line: stored in the run and compared on
@@ -140,7 +142,7 @@ void Run::balance(bool with_halo) {
   end_tile_ = b[static_cast<std::size_t>(ranks_->rank()) + 1];
 }
 
-void Run::create(const fs::path& partial) {
+void Run::create(const fs::path& partial, const std::string& digest) {
   const h5::File in = h5::File::open(input_path_, false);
   file_.emplace(h5::File::create(partial));
   h5::File& f = file();
@@ -159,6 +161,7 @@ void Run::create(const fs::path& partial) {
   f.copy_from(in, layout::tiles, layout::tiles);
 
   f.set_attribute(layout::run, "parameters", key());
+  f.set_attribute(layout::run, "input_digest", digest);
   f.set_attribute(layout::run, "input_name", input_path_.filename().string());
   f.set_attribute(layout::run, "input_size_bytes", static_cast<std::int64_t>(fs::file_size(input_path_)));
   f.set_attribute(layout::run, "tool_version", version());
@@ -247,19 +250,65 @@ void Run::read_input_tables() {
     }
 }
 
+namespace {
+
+bool has_hdf5_signature(const fs::path& path) {
+  char head[8] = {};
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (f == nullptr) return false;
+  const std::size_t got = std::fread(head, 1, sizeof head, f);
+  std::fclose(f);
+  return got == sizeof head && std::memcmp(head, "\x89HDF\r\n\x1a\n", 8) == 0;
+}
+
+}  // namespace
+
+std::string Run::input_digest() const {
+  // Every row of the input's positions, in blocks of a fixed size, then the tile table: a
+  // container of the same size with other coordinates or other tiles has another digest.
+  std::uint64_t state = io::kDigestSeed;
+  {
+    const h5::File in = h5::File::open(input_path_, false);
+    const h5::Dataset positions = in.dataset(layout::positions);
+    constexpr std::uint64_t kRows = 1u << 16;
+    std::vector<double> block;
+    for (std::uint64_t first = 0; first < n_; first += kRows) {
+      const std::uint64_t count = std::min(kRows, n_ - first);
+      block.resize(3 * count);
+      positions.read_rows(first, count, block.data());
+      state = io::digest_update(state, block.data(), block.size() * sizeof(double));
+    }
+  }
+  state = io::digest_update(state, tiles_.offsets.data(), tiles_.offsets.size() * sizeof(std::uint64_t));
+  state = io::digest_update(state, tiles_.bounds.data(), tiles_.bounds.size() * sizeof(Box));
+  std::string digest = io::digest_text(state);
+  if (!options_.neighbor_reference.empty()) digest += " reference:" + io::file_digest(options_.neighbor_reference);
+  return digest;
+}
+
 void Run::open_or_create() {
   if (ranks_->rank() != 0) return;  // the others open the file in share()
 
   const fs::path partial = partial_name(output_);
-  std::error_code ec;
-  if (fs::exists(partial, ec)) {
+  // The run file is held exclusively (a lock) for the whole run: a second process, e.g. a
+  // --resume started while this run still works, is refused before it reads or writes it.
+  lock_.emplace(partial);
+  const std::string digest = input_digest();
+  // An empty file is the one the lock just made (or one left by a run killed before it wrote
+  // anything): not a run.
+  if (!lock_->created() && lock_->size_when_locked() > 0) {
     if (!options_.resume)
       throw io::IoError(partial.string() +
                         ": an interrupted run is in the way: pass --resume to continue it, or remove the file");
     bool usable = false;
+    // Only a file this tool made is ever replaced: an HDF5 file with a run group (its state
+    // record may be missing when it was killed while being created), or an HDF5 file that
+    // libhdf5 cannot open (killed before its first flush). Anything else is the user's.
+    bool ours = has_hdf5_signature(partial);
     try {
       file_.emplace(h5::File::open(partial, true));
-      if (file().exists(layout::run_state)) {
+      ours = file().exists(layout::run);
+      if (ours && file().exists(layout::run_state)) {
         const auto st = file().dataset(layout::run_state).read_all<std::int64_t>();
         if ((st.size() == kStateSize || st.size() == kLegacyStateSize) && st[kSetupDone] == 1) {
           state_ = st;
@@ -269,21 +318,30 @@ void Run::open_or_create() {
         }
       }
     } catch (const io::IoError&) {
-      usable = false;  // killed while it was being created: start again
+      usable = false;
     }
     if (usable) {
       const std::string stored = file().string_attribute(layout::run, "parameters");
       if (stored != key())
         throw ParamError(partial.string() + " was started with other parameters (" + stored +
                          "); run with those, or remove the file");
-      if (point_count(file()) != n_)
-        throw io::IoError(partial.string() + ": the interrupted run belongs to another input");
+      // Runs started before the digest was recorded are checked by their point count only.
+      const bool other_input =
+          point_count(file()) != n_ || (file().has_attribute(layout::run, "input_digest") &&
+                                        file().string_attribute(layout::run, "input_digest") != digest);
+      if (other_input)
+        throw io::IoError(partial.string() + ": the interrupted run belongs to another input than " +
+                          input_path_.string() +
+                          " (its content differs): give the run's input, or remove the file to start again");
       return;
     }
     file_.reset();
-    fs::remove(partial, ec);
+    if (!ours)
+      throw io::IoError(partial.string() +
+                        ": not a run this tool can continue (not a pointfair run file, or damaged): it is "
+                        "left alone; remove or rename it to start the run");
   }
-  create(partial);
+  create(partial, digest);
 }
 
 OutOfCoreReport Run::run() {
@@ -293,6 +351,7 @@ OutOfCoreReport Run::run() {
   require(options_.temporal_block == 1 || !(auto_lambda_on() && params_.lambda_every_step),
           "temporal blocks (--temporal-block) need a fixed lambda or one measured once (--lambda-schedule "
           "once): the automatic lambda of every step is measured on the whole cloud between steps");
+  io::require_output_path(output_);
   io::require_distinct(input_path_, output_);
   io::require_distinct(input_path_, partial_name(output_));
   OutOfCoreReport report;

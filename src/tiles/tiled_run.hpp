@@ -29,6 +29,7 @@
 #include "pointfair/shrink_compensation.hpp"
 #include "pointfair/spatial_order.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/io/file_lock.hpp"
 #include "pointfair/tiles/balance.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/tiles/container.hpp"
@@ -108,7 +109,7 @@ class Run {
  private:
   void read_input_tables();
   void open_or_create();
-  void create(const fs::path& partial);
+  void create(const fs::path& partial, const std::string& digest);
   void share();
   void release();
   void commit_state() { commit_state(state_); }
@@ -121,6 +122,9 @@ class Run {
   std::uint64_t my_end_row() const { return tiles_.offsets[end_tile_]; }
   void build_neighbors(int step);
   std::string key() const;
+  // What the run continues: a digest of the input's positions and tile table (and of the
+  // reference's bytes with neighbor_reference), stored in the run and compared on --resume.
+  std::string input_digest() const;
   void load_reference();
   void measure_bounds();
   void rebuild_neighbors(int step);
@@ -269,6 +273,8 @@ class Run {
   // This rank's tiles [first_tile_, end_tile_).
   std::size_t first_tile_ = 0, end_tile_ = 0;
   std::uint64_t halo_points_ = 0;
+  // Rank 0 holds the run file exclusively from before it opens it until the run ends.
+  std::optional<io::FileLock> lock_;
   std::optional<h5::File> file_;
   TileTable tiles_;
   std::uint64_t n_ = 0;

@@ -102,6 +102,11 @@ void Run::to_row_order() {
   const h5::Dataset order_rows = file().dataset(kLocalOrder);
   std::vector<Vec3> in_list_order, in_row_order;
   std::vector<Index> order_read;
+  // Collective writes: as many per rank as the rank with the most tiles. Counted before any
+  // write, as every rank calls the count (an MPI reduction) at the same point: a rank without
+  // tiles counted after its (no) writes while a rank with a tile was inside its first
+  // collective write, and both waited for ever (fewer tiles than ranks).
+  const std::uint64_t writes = tiles_to_write();
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t begin = tiles_.offsets[t], rows = tiles_.rows(t);
     if (rows == 0) continue;
@@ -131,9 +136,7 @@ void Run::to_row_order() {
     }, 8192);
     target.write_rows(begin, rows, in_row_order.data()->data(), h5::Transfer::Collective);
   }
-  // Collective writes: as many per rank as the rank with the most tiles.
-  for (std::uint64_t w = my_tiles(), writes = tiles_to_write(); w < writes; ++w)
-    target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
+  for (std::uint64_t w = my_tiles(); w < writes; ++w) target.write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
   state_[kStepBuffer] = target_code(false);
   commit_state();
 }

@@ -237,3 +237,48 @@ TEST_F(HostileFiles, FileThatGrowsWhileReadIsReadAsItsHeaderSays) {
   EXPECT_GE(t.size(), table.size());
   EXPECT_LE(t.size(), table.size() + 1);
 }
+
+// A container that contradicts itself: a tile's bounds that do not contain its points (the
+// halos of the other tiles are found through them, so the result would silently change).
+// The run checks every point against its tile's bounds while it builds the neighbourhoods.
+TEST_F(HostileFiles, TileBoundsThatDoNotContainTheirPointsAreRefused) {
+  io::PointTable t;
+  t.positions = sample_sphere(3000, 1.0, 9).points;
+  const fs::path file = dir_ / "scan.h5";
+  tiles::ImportOptions options;
+  options.tiling.max_tile_points = 500;
+  tiles::write_container(file, t, options);
+  for (const int side : {0, 3}) {  // a minimum raised, a maximum lowered
+    SCOPED_TRACE(side);
+    const fs::path copy = dir_ / ("bad" + std::to_string(side) + ".h5");
+    fs::copy_file(file, copy);
+    {
+      tiles::h5::File f = tiles::h5::File::open(copy, true);
+      tiles::h5::Dataset bounds = f.dataset(tiles::layout::tile_bounds);
+      double box[6];
+      bounds.read_rows(2, 1, box);
+      const double shrink = 0.25 * (box[3] - box[0]);
+      box[0 + side] += side == 0 ? shrink : -shrink;
+      bounds.write_rows(2, 1, box);
+      f.flush();
+    }
+    SmoothParams params;
+    params.steps = 1;
+    params.finish.reset();
+    try {
+      tiles::smooth_out_of_core(copy, dir_ / "run.h5", params);
+      ADD_FAILURE() << "no error";
+    } catch (const io::IoError& e) {
+      EXPECT_NE(std::string(e.what()).find(copy.filename().string() + ": /tiles/bounds: row "), std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find("lies outside the bounds of its tile 2"), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(dir_ / "run.h5"));
+    fs::remove(tiles::partial_name(dir_ / "run.h5"));
+  }
+  // The container as written runs.
+  SmoothParams params;
+  params.steps = 1;
+  params.finish.reset();
+  EXPECT_NO_THROW(tiles::smooth_out_of_core(file, dir_ / "run.h5", params));
+}

@@ -329,3 +329,39 @@ TEST(HostileGeometry, NonFiniteCoordinatesAreRefusedBeforeAnyWork) {
   options.neighbor_reference = reference;
   EXPECT_THROW(smooth(points, few_steps(), options), ParamError);
 }
+
+// Extreme magnitudes: a cloud scaled by a power of two keeps its normals and curvatures (scaled
+// by the inverse), from 2^-330 (~1e-99) to 2^330 (~1e99). Around 1e40 the normals' iteration
+// overflowed (products of four covariance entries): zero normals and k = 0 while the summary
+// said "0 degenerate".
+TEST(HostileGeometry, ExtremeMagnitudesKeepNormalsAndCurvatures) {
+  std::vector<Vec3> unit = sample_sphere(600, 1.0, 21).points;
+  add_noise(unit, 0.005, 22);
+  SmoothParams params;
+  params.steps = 1;
+  params.finish.reset();
+  std::vector<Vec3> reference = unit;
+  const SmoothReport report = smooth(reference, params);
+  const PointAttributes expected = compute_attributes(reference, report.neighborhoods, params.flow, report.lambda);
+  ASSERT_EQ(expected.degenerate, 0u);
+  for (const int exponent : {-330, -200, 100, 133, 140, 200, 330}) {
+    SCOPED_TRACE(exponent);
+    const double scale = std::ldexp(1.0, exponent);
+    std::vector<Vec3> scaled = unit;
+    for (Vec3& p : scaled) p *= scale;
+    const SmoothReport r = smooth(scaled, params);
+    EXPECT_EQ(r.degenerate, 0u);
+    const PointAttributes a = compute_attributes(scaled, r.neighborhoods, params.flow, r.lambda);
+    EXPECT_EQ(a.degenerate, 0u);
+    double worst_normal = 0, worst_k = 0, worst_position = 0;
+    for (std::size_t i = 0; i < unit.size(); ++i) {
+      worst_normal = std::max(worst_normal, std::min((a.normal[i] - expected.normal[i]).norm(),
+                                                     (a.normal[i] + expected.normal[i]).norm()));
+      worst_k = std::max(worst_k, std::abs(a.k1[i] * scale - expected.k1[i]));
+      worst_position = std::max(worst_position, (scaled[i] / scale - reference[i]).norm());
+    }
+    EXPECT_LT(worst_normal, 1e-9);
+    EXPECT_LT(worst_k, 1e-6);
+    EXPECT_LT(worst_position, 1e-12);
+  }
+}

@@ -155,11 +155,13 @@ TEST(Xyz, PointCountLineIsSkipped) {
   EXPECT_NE(warnings[0].find("first line declares 3 points, the file has 2"), std::string::npos);
 }
 
-TEST(Xyz, NanAttributeIsKept) {
+// Attributes follow the coordinates' rule (docs/hostile-inputs.md): a non-finite value is a
+// read error naming the line (it used to be kept).
+TEST(XyzErrors, NanAttributeNamesTheLine) {
   TempDir dir;
   const auto file = dir / "nan_attr.xyz";
   write_file(file, "1 2 3 nan\n");
-  EXPECT_TRUE(std::isnan(read_xyz(file).attributes[0].values[0]));
+  expect_io_error([&] { read_xyz(file); }, file, "line 1: 'nan' (column 4) is not a finite number");
 }
 
 TEST(XyzErrors, RaggedRowNamesTheLine) {

@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "pointfair/io/atomic_file.hpp"
 #include "interrupt.hpp"
 #include "run_support.hpp"
 #include "pointfair/io/attribute_roles.hpp"
@@ -33,6 +34,8 @@ int run_curvature(const Args& args) {
   if (!parser.parse(args)) return 0;
   params.validate();
   set_thread_count(output.threads);
+  // A named pipe or a device at OUT is refused before any work, not after it.
+  io::require_output_path(output_path);
 
   const auto t0 = std::chrono::steady_clock::now();
   io::PointTable table = read_input(input, output.quiet);
@@ -46,7 +49,7 @@ int run_curvature(const Args& args) {
   const double lambda = resolve_lambda(table.positions, neighborhoods, params.flow);
   const PointAttributes attributes =
       compute_attributes(table.positions, neighborhoods, params.flow, lambda);
-  add_result_columns(table, attributes, output, true);
+  add_result_columns(table, attributes, output, true, curvature_type(attributes));
   throw_if_interrupted();
   write_output(output_path, table, output, input);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -1,5 +1,6 @@
 // pointfair eval CLOUD --truth T: quality of a cloud against ground truth (see
 // pointfair/eval/metrics.hpp for every measure's definition).
+#include <filesystem>
 #include <cstdio>
 #include <iostream>
 #include <optional>
@@ -7,6 +8,10 @@
 #include "commands.hpp"
 #include "run_support.hpp"
 #include "pointfair/eval/metrics.hpp"
+#include "pointfair/eval/truth.hpp"
+#include "pointfair/io/point_table.hpp"
+#include "pointfair/params_error.hpp"
+#include "pointfair/shapes.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/version.hpp"
 
@@ -99,11 +104,38 @@ int run_eval(const Args& args) {
   set_thread_count(output.threads);
 
   const eval::TruthSpec spec = eval::truth_from_argument(truth_arg);
-  const eval::GroundTruth truth(spec, truth_params);
+  // Every error names its file: the truth's (a mesh or truth file), the cloud's, the others'.
+  const bool truth_file = spec.shape == "mesh" || std::filesystem::path(truth_arg).extension() == ".truth";
+  std::optional<eval::GroundTruth> truth_holder;
+  try {
+    truth_holder.emplace(spec, truth_params);
+  } catch (const ParamError& e) {
+    if (!truth_file) throw;
+    throw io::IoError(truth_arg + ": " + e.what());
+  }
+  const eval::GroundTruth& truth = *truth_holder;
+  if (truth_file && !(truth.bounds().diagonal().norm() > 0)) throw io::IoError(truth_arg + ": the truth has an empty bounding box");
   const io::PointTable cloud = read_input(cloud_path, true);
+  if (cloud.positions.empty()) throw io::IoError(cloud_path + ": no points to evaluate");
   io::PointTable clean, input;
   if (!clean_path.empty()) clean = read_input(clean_path, true);
   if (!input_path.empty()) input = read_input(input_path, true);
+  if (!input_path.empty() && input.size() != cloud.size())
+    throw io::IoError(input_path + ": has " + std::to_string(input.size()) + " points, " + cloud_path + " has " +
+                      std::to_string(cloud.size()) + " (--input is the same cloud before processing)");
+  if (!clean_path.empty() && !(bounding_box_diagonal(clean.positions) > 0))
+    throw io::IoError(clean_path + ": the reference cloud has no extent");
+  // Coordinates whose squared distances overflow: refused, naming the file.
+  const auto require_magnitude = [](const io::PointTable& table, const std::string& file) {
+    for (std::size_t i = 0; i < table.size(); ++i)
+      if (!(table.positions[i].cwiseAbs().maxCoeff() <= eval::kEvalMaxCoordinate))
+        throw io::IoError(file + ": point " + std::to_string(i) +
+                          " has a coordinate beyond 1e100 in magnitude, where eval's squared distances overflow: "
+                          "rescale the cloud");
+  };
+  require_magnitude(cloud, cloud_path);
+  if (!clean_path.empty()) require_magnitude(clean, clean_path);
+  if (!input_path.empty()) require_magnitude(input, input_path);
   const eval::EvalReport r = eval::evaluate(truth, {cloud.positions, clean.positions, input.positions}, params);
 
   if (output.json) {

@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "pointfair/io/atomic_file.hpp"
 #include "container_export.hpp"
 #include "out_of_core.hpp"
 #include "run_support.hpp"
@@ -33,6 +34,7 @@ int run_export(const Args& args) {
   add_output_options(parser, out, true);
   if (!parser.parse(args)) return 0;
   if (!is_container_path(input)) throw UsageError("pointfair export: IN must be a .h5 file, got '" + input + "'");
+  io::require_output_path(output);
   ContainerExport options;
   options.original_order = !tile_order;
   options.input_positions = input_positions;

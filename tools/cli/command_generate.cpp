@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "commands.hpp"
+#include "pointfair/params_error.hpp"
 #include "run_support.hpp"
 #include "pointfair/eval/truth.hpp"
 #include "pointfair/shapes.hpp"
@@ -78,7 +79,15 @@ int run_generate(const Args& args) {
   }
 
   const auto seed64 = static_cast<std::uint64_t>(seed);
-  const SurfaceSamples samples = eval::generate_clean_samples(spec, static_cast<std::size_t>(points), seed64);
+  // A mesh that cannot be sampled (no triangles, zero area) is a problem of its file: named.
+  const SurfaceSamples samples = [&] {
+    try {
+      return eval::generate_clean_samples(spec, static_cast<std::size_t>(points), seed64);
+    } catch (const ParamError& e) {
+      if (shape != "mesh") throw;
+      throw io::IoError(mesh_path + ": " + e.what());
+    }
+  }();
   auto to_table = [&](const std::vector<Vec3>& positions) {
     io::PointTable table;
     table.positions = positions;

@@ -67,7 +67,7 @@ int run_import(const Args& args) {
   options.tiling.max_tile_points = tile_points > 0 ? tile_points : tile_points_for_budget(budget, kAutoKMax);
   options.tiling.cell_size = cell_size;
   options.source_name = std::filesystem::path(input).filename().string();
-  options.source_size = std::filesystem::file_size(input);
+  options.source_size = input_file_size(input);
   // Streams the file (three passes) within the budget: see tiles/import.hpp.
   tiles::StreamImportOptions stream;
   stream.container = options;

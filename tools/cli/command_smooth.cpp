@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "pointfair/io/atomic_file.hpp"
 #include "interrupt.hpp"
 #include "progress.hpp"
 #include "run_support.hpp"
@@ -47,6 +48,8 @@ int run_smooth(const Args& args) {
   if (!parser.parse(args)) return 0;
   params.validate();
   set_thread_count(output.threads);
+  // A named pipe or a device at OUT is refused before any work, not after it.
+  io::require_output_path(output_path);
 
   const auto t_start = std::chrono::steady_clock::now();
   io::PointTable table = read_input(input, output.quiet);
@@ -54,8 +57,9 @@ int run_smooth(const Args& args) {
   if (!reference.empty()) {
     reference_positions = read_input(reference, output.quiet).positions;
     if (reference_positions.size() != table.size())
-      throw ParamError("--neighbors-from " + reference + " has " + std::to_string(reference_positions.size()) +
-                       " points, the input " + std::to_string(table.size()));
+      throw ParamError(reference + ": has " + std::to_string(reference_positions.size()) + " points, " + input +
+                       " has " + std::to_string(table.size()) +
+                       " (--neighbors-from needs the input's points in the same order)");
   }
   const double seconds_read = seconds_since(t_start);
   const std::vector<Vec3> before = table.positions;
@@ -103,7 +107,7 @@ int run_smooth(const Args& args) {
     const PointAttributes attributes =
         compute_attributes(table.positions, report.neighborhoods, params.flow, report.lambda);
     degenerate_final = attributes.degenerate;
-    add_result_columns(table, attributes, output, output.attributes);
+    add_result_columns(table, attributes, output, output.attributes, curvature_type(attributes));
   }
   const double seconds_attributes = seconds_since(t0);
   throw_if_interrupted();

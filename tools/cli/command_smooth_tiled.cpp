@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 
 #include "commands.hpp"
 #include "pointfair/neighborhood_size.hpp"
@@ -13,10 +14,12 @@
 #include "progress.hpp"
 #include "run_support.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
 #include "pointfair/version.hpp"
@@ -52,6 +55,51 @@ Args without_budget(const Args& args) {
 void remove_quietly(const fs::path& p) {
   std::error_code ec;
   fs::remove(p, ec);
+}
+
+// The folder of a run that writes or reads a point file: ".<OUT's name>.pointfair-run" beside
+// OUT, holding the imported input ("input.h5") and the run ("run.h5", "run.h5.partial"). The
+// run's own files live in a folder the run made, so that they can never be a user's file; the
+// folder is locked for the whole command and removed when the command ends, but for an
+// interrupted run, which --resume continues.
+fs::path work_folder_of(const fs::path& output) {
+  std::string name = ".";
+  name += output.filename().string();
+  name += ".pointfair-run";
+  return output.parent_path() / name;
+}
+
+// Makes or (with --resume) reopens the work folder, and locks it. `existed`: it was there
+// before (an interrupted run's, which this command must never lose).
+std::unique_ptr<io::FolderLock> open_work_folder(const fs::path& work, bool resume, bool& existed) {
+  std::error_code ec;
+  const bool made = fs::create_directory(work, ec);
+  if (ec) throw io::IoError(work.string() + ": cannot create the run's folder: " + ec.message());
+  existed = !made;
+  if (!made) {
+    const auto status = fs::symlink_status(work, ec);
+    if (!fs::is_directory(status))
+      throw io::IoError(work.string() + ": exists and is not a run's folder: it is left alone; remove or rename it");
+    if (!resume)
+      throw io::IoError(work.string() +
+                        ": an interrupted run is in the way: pass --resume to continue it, or remove the folder");
+  }
+  auto lock = std::make_unique<io::FolderLock>(work);
+  if (!made) {
+    for (const auto& entry : fs::directory_iterator(work, ec)) {
+      const std::string name = entry.path().filename().string();
+      if (name != "input.h5" && name != "run.h5" && name != "run.h5.partial" && !name.starts_with("."))
+        throw io::IoError(work.string() + ": holds files this tool did not make (" + name +
+                          "): it is left alone; remove or rename it");
+    }
+  }
+  return lock;
+}
+
+// Removes the run's files and its folder (only the names it makes).
+void remove_work_folder(const fs::path& work) {
+  for (const char* name : {"input.h5", "run.h5", "run.h5.partial"}) remove_quietly(work / name);
+  remove_quietly(work);  // only when empty: a temporary still being removed keeps it
 }
 
 }  // namespace
@@ -105,8 +153,11 @@ int run_smooth_out_of_core(const Args& args) {
   const auto t_start = std::chrono::steady_clock::now();
 
   const bool container_in = is_container_path(input), container_out = is_container_path(output_path);
+  io::require_output_path(output_path);
   fs::path run_input = input;
   fs::path imported;
+  fs::path work;
+  std::unique_ptr<io::FolderLock> work_lock;
   if (!container_in) {
     // The PLY header's count, or a counting pass over a text file: the cloud is not loaded.
     const std::uint64_t points = count_points(input);
@@ -115,29 +166,64 @@ int run_smooth_out_of_core(const Args& args) {
     // In core the quadric finish adds its normals and short lists and one block of its
     // k-long lists; out of core, tiles hold k-long lists for every point.
     const int flow_k = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
-    const int k_bound = params.finish ? std::max(flow_k, params.finish->k) : flow_k;
     const std::uint64_t in_core = in_core_bytes(points, flow_k, compensated) +
                                   (params.finish ? in_core_finish_bytes(points, *params.finish) : 0);
     if (!container_out && in_core <= ooc.memory_budget && !ooc.resume) {
       return run_smooth(without_budget(args));
     }
     io::require_distinct(input, output_path);
-    imported = fs::path(output_path).string() + ".input.h5";
-    tiles::StreamImportOptions import;
-    import.container.tiling.max_tile_points = tile_points_for_budget(ooc.memory_budget, k_bound);
-    import.container.source_name = fs::path(input).filename().string();
-    import.container.source_size = fs::file_size(input);
-    // The import streams the file within the budget (at least its minimum of 16 MiB).
-    import.memory_budget = std::max(ooc.memory_budget, kMinImportBudget);
-    import.read.on_warning = [quiet = output.quiet](const std::string& message) {
-      if (!quiet) std::fprintf(stderr, "warning: %s\n", message.c_str());
-    };
-    import.progress = [](const std::string&, std::uint64_t, std::uint64_t) { throw_if_interrupted(); };
-    if (!(ooc.resume && fs::exists(imported))) tiles::import_points(input, imported, import);
+  }
+  bool work_existed = false;
+  if (!container_in || !container_out) {
+    work = work_folder_of(output_path);
+    work_lock = open_work_folder(work, ooc.resume, work_existed);
+  }
+  // The work folder goes when the run is done; when the command fails, only if this command
+  // made it and it holds nothing to resume (or the run cannot be continued). An interrupted
+  // run's folder that a --resume found stays whatever happens before its end.
+  struct WorkGuard {
+    fs::path work;
+    bool existed = false;
+    bool keep = false;
+    bool done = false;
+    ~WorkGuard() {
+      if (work.empty() || (existed && !done)) return;
+      std::error_code ec;
+      if (done || !keep || !fs::exists(work / "run.h5.partial", ec)) remove_work_folder(work);
+    }
+  } guard{work, work_existed};
+  if (!container_in) {
+    imported = work / "input.h5";
+    // What the run continues must be this input: its bytes, not only its size.
+    const std::string digest = io::file_digest(input);
+    if (ooc.resume && fs::exists(imported)) {
+      const auto f = tiles::h5::File::open(imported, false);
+      if (!f.has_attribute("/", "source_digest") || f.string_attribute("/", "source_digest") != digest)
+        throw io::IoError(input + ": the interrupted run in " + work.string() +
+                          " was started from another input (its content differs): give that input, or remove "
+                          "the folder to start again");
+    } else {
+      const int flow_k = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
+      const int k_bound = params.finish ? std::max(flow_k, params.finish->k) : flow_k;
+      tiles::StreamImportOptions import;
+      import.container.tiling.max_tile_points = tile_points_for_budget(ooc.memory_budget, k_bound);
+      import.container.source_name = fs::path(input).filename().string();
+      import.container.source_size = input_file_size(input);
+      import.container.source_digest = digest;
+      // The import streams the file within the budget (at least its minimum of 16 MiB).
+      import.memory_budget = std::max(ooc.memory_budget, kMinImportBudget);
+      import.read.on_warning = [quiet = output.quiet](const std::string& message) {
+        if (!quiet) std::fprintf(stderr, "warning: %s\n", message.c_str());
+      };
+      import.progress = [](const std::string&, std::uint64_t, std::uint64_t) { throw_if_interrupted(); };
+      tiles::import_points(input, imported, import);
+    }
     run_input = imported;
   }
   (void)budget_given;
-  const fs::path run_output = container_out ? fs::path(output_path) : fs::path(output_path + ".run.h5");
+  const fs::path run_output = container_out ? fs::path(output_path) : work / "run.h5";
+  // From here an interrupted or failed run keeps what it committed, for --resume.
+  guard.keep = true;
 
   Progress progress("smooth (out of core): step", !output.quiet);
   Progress finish_progress("smooth (out of core): finish, tiles of this pass", !output.quiet);
@@ -145,9 +231,9 @@ int run_smooth_out_of_core(const Args& args) {
   ooc.attributes = true;
   // A signal stops the run after the phase's current tile or step: what is committed stays in
   // the partial file, and --resume continues from it (as after a kill).
-  const std::string resume_hint =
-      "the run so far is kept in " + tiles::partial_name(run_output).filename().string() +
-      ": run the same command with --resume to continue";
+  const std::string kept_in =
+      work.empty() ? tiles::partial_name(run_output).filename().string() : work.filename().string();
+  const std::string resume_hint = "the run so far is kept in " + kept_in + ": run the same command with --resume to continue";
   ooc.progress = [&](const std::string& phase, std::uint64_t done, std::uint64_t total) {
     throw_if_interrupted(resume_hint);
     const auto d = static_cast<long long>(done), t = static_cast<long long>(total);
@@ -170,25 +256,23 @@ int run_smooth_out_of_core(const Args& args) {
     // too small.
     const auto* budget = dynamic_cast<const tiles::BudgetError*>(&e);
     if (!imported.empty()) {
-      remove_quietly(imported);
-      remove_quietly(tiles::partial_name(run_output));
+      guard.keep = false;
       if (budget == nullptr) throw;
       // The tiles were sized for the budget: only a larger one helps.
       throw ParamError("the memory budget of " + tiles::size_text(budget->budget) + " is too small for " + input +
-                       " (the run needs " + tiles::size_text(budget->needed, true) + "): give a larger --memory-budget");
+                       " (the run needs " + tiles::size_text(budget->needed, true) + "): give a larger --memory-budget" +
+                       (work_existed ? " (the interrupted run stays in " + work.filename().string() + ")" : ""));
     }
     std::error_code ec;
     if (budget == nullptr || !fs::exists(tiles::partial_name(run_output), ec)) throw;
-    throw ParamError(std::string(e.what()) + " (the run so far is kept in " +
-                     tiles::partial_name(run_output).filename().string() +
+    throw ParamError(std::string(e.what()) + " (the run so far is kept in " + kept_in +
                      ": add --resume with a larger --memory-budget to continue it, or remove it)");
   } catch (const io::IoError& e) {
     // A failed read or write (a full disk, a disk that fails to sync): a container run keeps
     // the steps committed before it in its partial file, and says so.
     std::error_code ec;
-    if (!imported.empty() || !fs::exists(tiles::partial_name(run_output), ec)) throw;
-    throw io::IoError(std::string(e.what()) + " (the steps committed so far are kept in " +
-                      tiles::partial_name(run_output).filename().string() +
+    if (!fs::exists(tiles::partial_name(run_output), ec)) throw;
+    throw io::IoError(std::string(e.what()) + " (the steps committed so far are kept in " + kept_in +
                       ": once the cause is fixed, run the same command with --resume to continue)");
   }
   progress.finish();
@@ -201,8 +285,7 @@ int run_smooth_out_of_core(const Args& args) {
     ContainerExport exported;
     exported.memory_budget = ooc.memory_budget;
     export_container(run_output, output_path, output, exported, input);
-    remove_quietly(run_output);
-    if (!imported.empty()) remove_quietly(imported);
+    guard.done = true;
     seconds_write = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   }
   const double seconds_total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();

@@ -109,6 +109,24 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
       summary.has_results &&
       !io::normal_columns(tiles::ContainerChunkReader(container, {.original_order = false}).schema()).empty();
   const bool results = summary.has_results && (out.attributes || colour || stale_normals);
+  // The curvature columns' type, for every chunk alike: double when any value would not fit
+  // float (a cloud at an extreme scale), as in core (curvature_type).
+  io::ScalarType curvatures = io::ScalarType::Float32;
+  if (results && out.attributes) {
+    const auto f = tiles::h5::File::open(container, false);
+    const std::string a = std::string(tiles::layout::run_attributes) + "/";
+    std::vector<double> values;
+    for (const char* name : {"k1", "k2", "mean_curvature", "laplacian_norm"}) {
+      const tiles::h5::Dataset d = f.dataset(a + name);
+      for (std::uint64_t first = 0; first < d.rows() && curvatures == io::ScalarType::Float32; first += 1u << 16) {
+        const std::uint64_t count = std::min<std::uint64_t>(1u << 16, d.rows() - first);
+        values.resize(count);
+        d.read_rows(first, count, values.data());
+        for (const double v : values)
+          if (!fits_float(v)) curvatures = io::ScalarType::Float64;
+      }
+    }
+  }
   std::array<double, 2> range{0.0, 0.0};
   if (colour) range = colour_range(container, out.colour_by, out.colour_clip);
 
@@ -120,7 +138,7 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
   columns.colour_by = ColourBy::None;
   const auto add_columns = [&](io::PointTable& table, const PointAttributes& a) {
     if (!results) return;
-    add_result_columns(table, a, columns, out.attributes);
+    add_result_columns(table, a, columns, out.attributes, curvatures);
     if (!colour) return;
     std::vector<double> red(table.size()), green(table.size()), blue(table.size());
     for (std::size_t i = 0; i < table.size(); ++i) {

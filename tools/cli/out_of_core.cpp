@@ -6,6 +6,7 @@
 #include <string>
 
 #include "arguments.hpp"
+#include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/point_file.hpp"
 
 namespace pointfair::cli {
@@ -45,6 +46,14 @@ std::uint64_t tile_points_for_budget(std::uint64_t budget, int k) {
   const std::uint64_t reserve = std::uint64_t{16} << 20;  // the lambda sample and tables
   const std::uint64_t usable = budget > 2 * reserve ? budget - reserve : budget / 2;
   return std::max<std::uint64_t>(64, usable / bytes_per_tile_point(k));
+}
+
+std::uint64_t input_file_size(const std::filesystem::path& file) {
+  io::require_regular_input(file);
+  std::error_code ec;
+  const std::uint64_t size = std::filesystem::file_size(file, ec);
+  if (ec) throw io::IoError(file.string() + ": cannot open: " + ec.message());
+  return size;
 }
 
 std::uint64_t count_points(const std::filesystem::path& file) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <iostream>
 
 #include "pointfair/colour.hpp"
@@ -36,8 +37,21 @@ void write_output(const std::filesystem::path& path, const io::PointTable& table
   io::write_points(path, table, options);
 }
 
+bool fits_float(double value) {
+  const double magnitude = std::abs(value);
+  return magnitude == 0.0 || (magnitude >= std::numeric_limits<float>::min() &&
+                              magnitude <= std::numeric_limits<float>::max());
+}
+
+io::ScalarType curvature_type(const PointAttributes& a) {
+  for (const std::vector<double>* column : {&a.k1, &a.k2, &a.mean_curvature, &a.laplacian_norm})
+    for (const double v : *column)
+      if (!fits_float(v)) return io::ScalarType::Float64;
+  return io::ScalarType::Float32;
+}
+
 void add_result_columns(io::PointTable& table, const PointAttributes& a,
-                        const OutputOptions& output, bool all_attributes) {
+                        const OutputOptions& output, bool all_attributes, io::ScalarType curvature_type) {
   const std::size_t n = table.size();
   auto column = [n](auto&& get) {
     std::vector<double> v(n);
@@ -57,8 +71,8 @@ void add_result_columns(io::PointTable& table, const PointAttributes& a,
       const char* axis = c == 0 ? "x" : c == 1 ? "y" : "z";
       table.set(prefix + axis, ScalarType::Float32, column([&](std::size_t i) { return a.normal[i][c]; }));
     }
-    table.set("k1", ScalarType::Float32, a.k1);
-    table.set("k2", ScalarType::Float32, a.k2);
+    table.set("k1", curvature_type, a.k1);
+    table.set("k2", curvature_type, a.k2);
     for (int c = 0; c < 3; ++c) {
       const char* axis = c == 0 ? "x" : c == 1 ? "y" : "z";
       table.set(std::string("d1") + axis, ScalarType::Float32, column([&](std::size_t i) { return a.d1[i][c]; }));
@@ -67,8 +81,8 @@ void add_result_columns(io::PointTable& table, const PointAttributes& a,
       const char* axis = c == 0 ? "x" : c == 1 ? "y" : "z";
       table.set(std::string("d2") + axis, ScalarType::Float32, column([&](std::size_t i) { return a.d2[i][c]; }));
     }
-    table.set("mean_curvature", ScalarType::Float32, a.mean_curvature);
-    table.set("laplacian_norm", ScalarType::Float32, a.laplacian_norm);
+    table.set("mean_curvature", curvature_type, a.mean_curvature);
+    table.set("laplacian_norm", curvature_type, a.laplacian_norm);
     table.set("feature_class", ScalarType::UInt8,
               column([&](std::size_t i) { return static_cast<double>(a.feature[i]); }));
   }

@@ -26,8 +26,19 @@ void write_output(const std::filesystem::path& path, const io::PointTable& table
 
 /// Replaces the input's normal columns (io::normal_columns) by the new normals, adds colour
 /// (red/green/blue) when output.colour_by asks and, if asked, the per-point attribute columns.
+/// The curvature columns (k1, k2, mean_curvature, laplacian_norm) are `curvature_type`.
 void add_result_columns(io::PointTable& table, const PointAttributes& attributes,
-                        const OutputOptions& output, bool all_attributes);
+                        const OutputOptions& output, bool all_attributes,
+                        io::ScalarType curvature_type = io::ScalarType::Float32);
+
+/// True when `value` is 0 or within float's normal range: stored as float it stays finite and
+/// non-zero.
+bool fits_float(double value);
+
+/// Float32 when every curvature value of `attributes` fits_float, else Float64: a cloud at an
+/// extreme scale (around 1e40 curvatures fall below float's range, around 1e-40 beyond it)
+/// keeps its curvatures instead of writing them as 0 or inf.
+io::ScalarType curvature_type(const PointAttributes& attributes);
 
 /// Statistics of |after_i - before_i| (length), also relative to the bounding-box diagonal.
 struct DisplacementStats {

@@ -215,6 +215,8 @@ int run_import(const std::vector<std::string>& args, tiles::Ranks& ranks) {
 
 int main(int argc, char** argv) {
   tiles::MpiSession session(argc, argv);
+  // A file-size limit: EFBIG ("File too large") reported naming the file, not a silent SIGXFSZ.
+  std::signal(SIGXFSZ, SIG_IGN);
   const std::vector<std::string> all(argv + 1, argv + argc);
   if (all.empty() || (all[0] != "smooth" && all[0] != "import" && all[0] != "version" && all[0] != "--version")) {
     std::fprintf(stderr,

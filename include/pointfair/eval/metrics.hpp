@@ -73,6 +73,10 @@ struct EvalReport {
   std::optional<double> max_displacement, rms_displacement;
 };
 
+/// The largest coordinate magnitude evaluate() measures: its squared distances and their sums
+/// over billions of points stay finite (at 1e200 they overflowed and the mesh distance crashed).
+inline constexpr double kEvalMaxCoordinate = 1e100;
+
 struct EvalInput {
   std::span<const Vec3> cloud;
   /// Reference cloud of the Chamfer distance (the clean samples); empty: sample the truth

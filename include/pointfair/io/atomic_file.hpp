@@ -71,6 +71,12 @@ class AtomicFile {
 void write_file_atomically(const std::filesystem::path& target,
                            const std::function<void(FileSink&)>& write_body);
 
+/// Throws IoError "<output>: exists and is not a regular file (a named pipe): refused" when
+/// `output` (followed through symlinks) exists and is a named pipe, a device, a socket, or
+/// "cannot write: Is a directory" for a folder: an output is only ever written by replacing a
+/// regular file (or making a new one), never by writing into or replacing anything else.
+void require_output_path(const std::filesystem::path& output);
+
 /// Throws IoError "<output>: output would overwrite the input" if `output` names the same
 /// file as `input`: the same file on disk when `output` exists, else the same normalised
 /// absolute path.

@@ -49,6 +49,9 @@ struct ImportOptions {
   /// Recorded in the file's metadata.
   std::string source_name;
   std::uint64_t source_size = 0;
+  /// io::file_digest of the source, recorded when not empty (attribute "source_digest"): an
+  /// out-of-core run resumed from a point file checks it against the file it is given.
+  std::string source_digest;
 };
 
 /// Writes `table` as a container at `file`, atomically (a temporary name, renamed when

@@ -154,6 +154,30 @@ TEST_F(MpiRunTest, MoreRanksThanTilesLeavesRanksIdleAndTheSameBits) {
   expect_same_run("ref.h5", "out.h5");
 }
 
+// Fewer tiles than ranks, where the run ends by its automatic stop (or its last step) with
+// the positions held in the order of the lists: the ranks without a tile used to count their
+// collective writes while the rank with the tile was inside its first one, and the job never
+// ended. Now it ends, on 2 and 3 ranks, with the single process's bits.
+TEST_F(MpiRunTest, OneTileOnTwoAndThreeRanksEndsWithTheSingleProcessBits) {
+  write_container(path("in.h5"), test::noisy_cube(3000, 37), test::tiled({.max_tile_points = 100000}));
+  ASSERT_EQ(read_tile_table(h5::File::open(path("in.h5"), false)).size(), 1u);
+  params_.steps = 40;  // the automatic stop ends the flow before
+  run_serial("ref.h5");
+  EXPECT_LT(h5::File::open(path("ref.h5"), false).dataset("/run/state").read_all<std::int64_t>()[2], 40);
+  for (const int ranks : {2, 3}) {
+    SCOPED_TRACE(std::to_string(ranks) + " ranks");
+    const std::string out = "out" + std::to_string(ranks) + ".h5";
+    ASSERT_EQ(run_mpi(ranks, out), 0) << log_;
+    EXPECT_LT(seconds_, 50.0) << log_;
+    expect_same_run("ref.h5", out);
+  }
+  // With the quadric finish too.
+  finish_ = QuadricProjectionParams{};
+  run_serial("ref_finish.h5");
+  ASSERT_EQ(run_mpi(2, "out_finish.h5"), 0) << log_;
+  expect_same_run("ref_finish.h5", "out_finish.h5");
+}
+
 TEST_F(MpiRunTest, OneRankUnderMpirunBitIdenticalToOneProcess) {
   run_serial("ref.h5");
   ASSERT_EQ(run_mpi(1, "out.h5"), 0) << log_;
