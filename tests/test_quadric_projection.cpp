@@ -312,5 +312,30 @@ TEST(QuadricPlacement, AnchorsAtThePointsGiveThePlainFinish) {
   EXPECT_THROW(finish_with_quadrics(placed, params, std::vector<Vec3>(3)), ParamError);
 }
 
+// placement_turn: an anchor whose distance along the surface times the surface's curvature
+// exceeds the bound is not placed (the point is projected as by the plain finish, bit for
+// bit); with a loose bound it is.
+TEST(QuadricPlacement, AnchorsWhereTheSurfaceTurnsAreNotPlaced) {
+  std::vector<Vec3> p = sample_sphere(3000, 1.0, 9).points;
+  add_noise(p, 0.005, 10);
+  std::vector<Vec3> anchors = p;
+  for (Vec3& a : anchors) a += 0.05 * a.unitOrthogonal();  // curvature 1 x 0.05 along: a turn of 0.05
+  QuadricProjectionParams params;
+  params.k = 80;
+  params.passes = 1;
+  std::vector<Vec3> plain = p, tight = p, loose = p;
+  finish_with_quadrics(plain, params);
+  params.placement_turn = 0.02;
+  finish_with_quadrics(tight, params, anchors);
+  EXPECT_EQ(tight, plain);
+  params.placement_turn = 1.0;
+  finish_with_quadrics(loose, params, anchors);
+  std::size_t placed = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) placed += loose[i] != plain[i];
+  EXPECT_GT(placed, p.size() * 9 / 10);
+  params.placement_turn = -1.0;
+  EXPECT_THROW(finish_with_quadrics(loose, params, anchors), ParamError);
+}
+
 }  // namespace
 }  // namespace pointfair

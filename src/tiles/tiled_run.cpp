@@ -42,7 +42,7 @@ std::string finish_key(const QuadricProjectionParams& q) {
     << " quadric_bound=" << q.inlier_bound << " quadric_degree=" << q.degree << " quadric_passes=" << q.passes
     << " quadric_curvature_reach=" << q.curvature_reach << " quadric_min_k=" << q.min_k
     << " quadric_frame_seed=" << q.frame.seed_neighbors << " quadric_frame_iterations=" << q.frame.iterations
-    << " quadric_frame_bound=" << q.frame.inlier_bound;
+    << " quadric_frame_bound=" << q.frame.inlier_bound << " quadric_placement_turn=" << q.placement_turn;
   return s.str();
 }
 
