@@ -1,6 +1,6 @@
 // Degenerate and extreme geometry through the library: every case ends with finite positions,
 // a defined outcome (points that cannot move stay put and are counted as degenerate), or a
-// ParamError before any work. The README's "Hostile inputs" table lists these outcomes.
+// ParamError before any work. docs/hostile-inputs.md lists these outcomes.
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -25,7 +25,7 @@ int run_import(const Args& args) {
   tiles::ImportOptions options;
   bool json = false, quiet = false;
   ArgumentParser parser("pointfair import",
-                        "Writes a point file into a tiled HDF5 scan container (see the README: "
+                        "Writes a point file into a tiled HDF5 scan container (docs/out-of-core.md: "
                         "positions, every attribute, original indices, a tile table) for "
                         "out-of-core runs. LAZ input must be decompressed to LAS first.");
   parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
