@@ -292,7 +292,7 @@ void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3
       for (const Index j : rows.of(r)) {
         const bool same_face = std::abs(ni.dot(normals[j])) >= min_cos;
         if (same_face) kept.push_back(j);
-        if (seen++ < static_cast<std::size_t>(params.min_k) && !same_face) near_crease = true;
+        if (!anchors.empty() && seen++ < static_cast<std::size_t>(params.min_k) && !same_face) near_crease = true;
       }
       // Near a crease the anchor's position along the surface may lie past it, off both faces
       // (the input's noise along the surface): there the point goes where the fit puts it, as

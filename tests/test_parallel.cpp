@@ -190,14 +190,19 @@ TEST_F(Parallel, AttributesAreThreadCountIndependent) {
   }
 }
 
+// Installs `flag` as the stop flag for its lifetime.
+struct StopFlagGuard {
+  explicit StopFlagGuard(const std::atomic<int>& flag) { set_stop_flag(&flag); }
+  ~StopFlagGuard() { set_stop_flag(nullptr); }
+  StopFlagGuard(const StopFlagGuard&) = delete;
+  StopFlagGuard& operator=(const StopFlagGuard&) = delete;
+};
+
 // The stop flag (set_stop_flag): once set, a loop skips the ranges it has not started and
 // throws Stopped; unset, it changes nothing.
 TEST_F(Parallel, StopFlagEndsALoopEarly) {
   std::atomic<int> flag{0};
-  set_stop_flag(&flag);
-  struct Clear {
-    ~Clear() { set_stop_flag(nullptr); }
-  } clear;
+  const StopFlagGuard guard(flag);
   for (const int threads : {1, 2}) {
     set_thread_count(threads);
     const std::size_t n = 40 * kStopCheckRange;
@@ -223,10 +228,7 @@ TEST_F(Parallel, StopFlagDuringSmoothLeavesTheLastCompletedStep) {
   params.finish.reset();  // the flow alone
   params.steps = 6;
   std::atomic<int> flag{0};
-  set_stop_flag(&flag);
-  struct Clear {
-    ~Clear() { set_stop_flag(nullptr); }
-  } clear;
+  const StopFlagGuard guard(flag);
   SmoothOptions options;
   options.progress = [&](SmoothStage, std::size_t done, std::size_t) {
     if (done == 2) flag.store(1);  // the third step's first loop stops
@@ -247,10 +249,7 @@ TEST_F(Parallel, StopFlagDuringTheFinishLeavesTheFlowsResult) {
   params.steps = 2;
   params.finish->k = 30;
   std::atomic<int> flag{0};
-  set_stop_flag(&flag);
-  struct Clear {
-    ~Clear() { set_stop_flag(nullptr); }
-  } clear;
+  const StopFlagGuard guard(flag);
   SmoothOptions options;
   std::size_t finish_calls = 0;
   options.progress = [&](SmoothStage stage, std::size_t, std::size_t) {

@@ -70,7 +70,7 @@ int run_smooth(const Args& args) {
                          params.lambda_every_step && (params.stop_lambda_ratio > 0.0 || params.stop_plateau > 0.0);
   std::string step_label = "smooth: step";
   if (auto_stop)
-    step_label = "smooth: step (stops once the noise measure lambda falls to " + format_fraction(params.stop_lambda_ratio) +
+    step_label = "smooth: step (stops once the noise measure lambda falls to " + format_number(params.stop_lambda_ratio) +
                  " of its start or levels off)";
   if (!output.quiet) std::fprintf(stderr, "smooth: %zu points read; neighbourhoods...\n", table.size());
   Progress steps_progress(step_label, !output.quiet);

@@ -1,8 +1,9 @@
 #include "method_options.hpp"
 
+#include "run_support.hpp"
+
 #include <cmath>
 #include <limits>
-#include <sstream>
 
 namespace pointfair::cli {
 namespace {
@@ -18,13 +19,6 @@ Enum parse_choice(std::string_view text, std::string_view option,
   }
   throw UsageError("--" + std::string(option) + " must be one of " + names + ", got '" +
                    std::string(text) + "'");
-}
-
-// A default as the help text shows it: the shortest decimal that reads back the same.
-std::string format_number(double value) {
-  std::ostringstream s;
-  s << value;
-  return s.str();
 }
 
 }  // namespace

@@ -55,7 +55,7 @@ JsonObject parameters_json(const SmoothParams& params, int k, double eps, double
 /// The finish's parameters (SmoothParams::finish) as a JSON object; "enabled" says whether it runs.
 JsonObject finish_json(const SmoothParams& params);
 
-/// A number as printf's %g writes it.
-std::string format_fraction(double value);
+/// A number as printf's %g writes it (as the help texts state defaults).
+std::string format_number(double value);
 
 }  // namespace pointfair::cli
