@@ -7,6 +7,7 @@
 #include "pointfair/io/atomic_file.hpp"
 #include "interrupt.hpp"
 #include "progress.hpp"
+#include "number_text.hpp"
 #include "run_support.hpp"
 #include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/parallel.hpp"

@@ -1,6 +1,6 @@
 #include "method_options.hpp"
 
-#include "run_support.hpp"
+#include "number_text.hpp"
 
 #include <cmath>
 #include <limits>

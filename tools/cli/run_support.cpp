@@ -161,10 +161,4 @@ JsonObject finish_json(const SmoothParams& p) {
   return j;
 }
 
-std::string format_number(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%g", value);
-  return text;
-}
-
 }  // namespace pointfair::cli

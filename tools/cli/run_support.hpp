@@ -55,7 +55,4 @@ JsonObject parameters_json(const SmoothParams& params, int k, double eps, double
 /// The finish's parameters (SmoothParams::finish) as a JSON object; "enabled" says whether it runs.
 JsonObject finish_json(const SmoothParams& params);
 
-/// A number as printf's %g writes it (as the help texts state defaults).
-std::string format_number(double value);
-
 }  // namespace pointfair::cli
