@@ -10,6 +10,7 @@
 
 #include <Eigen/Cholesky>
 
+#include "pointfair/euler_step.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
 #include "robust_plane_fit.hpp"
@@ -37,9 +38,14 @@ Eigen::Matrix<double, kTerms<Degree>, 1> monomials(double u, double v) {
   return m;
 }
 
+// Each row of the design matrix padded to a multiple of four doubles, so that the loops over a
+// row's terms run in whole vectors.
+template <int Degree>
+constexpr int kStride = (kTerms<Degree> + 3) / 4 * 4;
+
 struct Scratch {
   std::vector<Vec3> offsets;
-  std::vector<double> u, v, h, weights, start_weights, plane_scratch, residuals;
+  std::vector<double> u, v, h, weights, start_weights, plane_scratch, residuals, design;
 };
 
 double reach_of(const Scratch& s, std::size_t count) {
@@ -48,16 +54,54 @@ double reach_of(const Scratch& s, std::size_t count) {
   return std::sqrt(reach);
 }
 
+// row[q] += wa * a[q] for the columns q of rows P.. of the lower triangle, each rounded up to
+// a whole vector of four (the padding is summed, unread); unrolled at compile time.
+template <int P, int Terms, int Stride>
+[[gnu::always_inline]] inline void add_gram_rows(const double* a, double w, double* gram) {
+  if constexpr (P < Terms) {
+    constexpr int columns = std::min(Stride, (P / 4 + 1) * 4);
+    const double wa = w * a[P];
+    double* row = gram + P * Stride;
+    for (int q = 0; q < columns; ++q) row[q] += wa * a[q];
+    add_gram_rows<P + 1, Terms, Stride>(a, w, gram);
+  }
+}
+
+// The lower triangle of sum_j w_j a_j a_j^T into `gram` (kTerms rows of kStride, row p holding
+// columns 0..p and padding beyond) and sum_j w_j h_j a_j into `rhs`, over the rows a_j of
+// `design` whose weight is positive; returns how many those are. Every entry is summed in the
+// rows' order, whatever width the compiler vectorises the loops over the columns with.
+template <int Degree>
+[[gnu::always_inline]] inline std::size_t weighted_normal_equations(const double* design, const double* h, const double* weights,
+                                      std::size_t count, double* gram, double* rhs) {
+  constexpr int terms = kTerms<Degree>;
+  constexpr int stride = kStride<Degree>;
+  std::fill(gram, gram + terms * stride, 0.0);
+  std::fill(rhs, rhs + stride, 0.0);
+  std::size_t kept = 0;
+  for (std::size_t j = 0; j < count; ++j) {
+    const double w = weights[j];
+    if (w <= 0.0) continue;
+    ++kept;
+    const double* a = design + j * stride;
+    const double wh = w * h[j];
+    for (int q = 0; q < stride; ++q) rhs[q] += wh * a[q];
+    add_gram_rows<0, terms, stride>(a, w, gram);
+  }
+  return kept;
+}
+
 // The polynomial fitted to the first `count` points of (s.u, s.v, s.h), weighted by
 // s.weights (reweighted in place): its height at u = v = 0, its second derivatives
 // (h_uu, h_uv, h_vv) when `second` is not null, and the robust scale of its residuals (1.4826
 // times their median) when `scale` is not null; false when the points do not determine it.
 // With `at` (tangent coordinates u, v), also the fit's height there into *height_at.
 template <int Degree>
-bool fit_height(const QuadricProjectionParams& params, std::size_t count, Scratch& s, double& height,
+[[gnu::always_inline]] inline bool fit_height(const QuadricProjectionParams& params, std::size_t count, Scratch& s, double& height,
                 double* second = nullptr, double* scale = nullptr, const double* at = nullptr,
                 double* height_at = nullptr) {
   constexpr int terms = kTerms<Degree>;
+  constexpr int stride = kStride<Degree>;
   using Vec = Eigen::Matrix<double, terms, 1>;
   using Mat = Eigen::Matrix<double, terms, terms>;
   const double reach = reach_of(s, count);
@@ -65,30 +109,37 @@ bool fit_height(const QuadricProjectionParams& params, std::size_t count, Scratc
   // Tangent coordinates in units of the fit's reach keep the normal equations well
   // conditioned; the constant term, the height above p, is unchanged by that.
   const double inv_reach = 1.0 / reach;
+  s.design.assign(count * stride, 0.0);
+  for (std::size_t j = 0; j < count; ++j) {
+    const Vec a = monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach);
+    std::copy(a.data(), a.data() + terms, s.design.data() + j * stride);
+  }
+  // h minus the fit at row j.
+  const auto residual = [&](std::size_t j, const Vec& c) {
+    const double* a = s.design.data() + j * stride;
+    double fitted = 0.0;
+    for (int t = 0; t < terms; ++t) fitted += a[t] * c[t];
+    return s.h[j] - fitted;
+  };
   Vec c = Vec::Zero();
   bool fitted = false;
+  alignas(32) double gram[terms * stride];
+  alignas(32) double rhs_terms[stride];
   for (int pass = 0; pass <= params.iterations; ++pass) {
-    Mat normal_matrix = Mat::Zero();
-    Vec rhs = Vec::Zero();
-    std::size_t kept = 0;
-    for (std::size_t j = 0; j < count; ++j) {
-      const double w = s.weights[j];
-      if (w <= 0.0) continue;
-      ++kept;
-      const Vec a = monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach);
-      normal_matrix.template selfadjointView<Eigen::Lower>().rankUpdate(a, w);
-      rhs += w * s.h[j] * a;
-    }
+    const std::size_t kept =
+        weighted_normal_equations<Degree>(s.design.data(), s.h.data(), s.weights.data(), count, gram, rhs_terms);
     if (kept < static_cast<std::size_t>(terms)) break;
-    normal_matrix = normal_matrix.template selfadjointView<Eigen::Lower>();
+    Mat normal_matrix;
+    for (int p = 0; p < terms; ++p)
+      for (int q = 0; q <= p; ++q) normal_matrix(p, q) = normal_matrix(q, p) = gram[p * stride + q];
+    const Vec rhs = Eigen::Map<const Vec>(rhs_terms);
     const Eigen::LDLT<Mat> ldlt(normal_matrix);
     const Vec d = ldlt.vectorD().cwiseAbs();
     if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-9 * d.maxCoeff())) break;
     c = ldlt.solve(rhs);
     fitted = true;
     if (pass == params.iterations) break;
-    for (std::size_t j = 0; j < count; ++j)
-      s.residuals[j] = std::abs(s.h[j] - monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach).dot(c));
+    for (std::size_t j = 0; j < count; ++j) s.residuals[j] = std::abs(residual(j, c));
     const std::span<double> w(s.weights.data(), count), scratch(s.plane_scratch.data(), count);
     detail::biweights(std::span<const double>(s.residuals.data(), count), params.inlier_bound, 1e-12 * reach, w,
                       scratch);
@@ -97,8 +148,7 @@ bool fit_height(const QuadricProjectionParams& params, std::size_t count, Scratc
   height = c[0];
   if (at != nullptr) *height_at = monomials<Degree>(at[0] * inv_reach, at[1] * inv_reach).dot(c);
   if (scale != nullptr) {
-    for (std::size_t j = 0; j < count; ++j)
-      s.plane_scratch[j] = std::abs(s.h[j] - monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach).dot(c));
+    for (std::size_t j = 0; j < count; ++j) s.plane_scratch[j] = std::abs(residual(j, c));
     const auto mid = s.plane_scratch.begin() + static_cast<std::ptrdiff_t>(count / 2);
     std::nth_element(s.plane_scratch.begin(), mid, s.plane_scratch.begin() + static_cast<std::ptrdiff_t>(count));
     *scale = 1.4826 * *mid;
@@ -135,7 +185,7 @@ namespace {
 
 // p moved along the normal of its robust plane onto its fit; with an anchor, the anchor moved
 // along that normal onto the same fit instead (placed_on_quadric).
-Vec3 project_one(const Vec3& p, const Vec3* anchor, std::span<const Index> neighbors, std::span<const Vec3> points,
+[[gnu::always_inline]] inline Vec3 project_one(const Vec3& p, const Vec3* anchor, std::span<const Index> neighbors, std::span<const Vec3> points,
                  const QuadricProjectionParams& params, Scratch& s) {
   const std::size_t m = neighbors.size() + 1;  // p itself and its neighbours
   if (m < 6) return p;
@@ -265,6 +315,65 @@ void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> nor
   project_rows_to_quadrics(points, normals, neighborhoods, {}, params, out);
 }
 
+namespace {
+
+// The inputs of project_rows_to_quadrics (see there).
+struct RowsJob {
+  std::span<const Vec3> points, normals;
+  NeighborhoodsView rows;
+  std::span<const Index> queries;
+  const QuadricProjectionParams& params;
+  std::span<Vec3> out;
+  std::span<const Vec3> anchors;
+  double min_cos;
+};
+
+// Rows [begin, end) of project_rows_to_quadrics.
+[[gnu::always_inline]] inline void project_rows(const RowsJob& job, std::size_t begin, std::size_t end) {
+  Scratch s;
+  std::vector<Index> kept;
+  const std::size_t min_k = static_cast<std::size_t>(job.params.min_k);
+  for (std::size_t r = begin; r < end; ++r) {
+    const std::size_t i = job.queries.empty() ? r : job.queries[r];
+    const Vec3& ni = job.normals[i];
+    if (ni.isZero()) {  // no plane, no direction to move along
+      job.out[r] = job.points[i];
+      continue;
+    }
+    kept.clear();
+    // With an anchor: whether a neighbour among the nearest min_k lies on another face (its
+    // normal beyond the angle), i.e. the point is near a crease.
+    bool near_crease = false;
+    std::size_t seen = 0;
+    for (const Index j : job.rows.of(r)) {
+      const bool same_face = std::abs(ni.dot(job.normals[j])) >= job.min_cos;
+      if (same_face) kept.push_back(j);
+      if (!job.anchors.empty() && seen++ < min_k && !same_face) near_crease = true;
+    }
+    // Near a crease the anchor's position along the surface may lie past it, off both faces
+    // (the input's noise along the surface): there the point goes where the fit puts it, as
+    // in the free finish; elsewhere the anchor is placed along the normal.
+    const Vec3* anchor = job.anchors.empty() || near_crease ? nullptr : &job.anchors[r];
+    job.out[r] = project_one(job.points[i], anchor, kept, job.points, job.params, s);
+  }
+}
+
+// The same source compiled for the build's baseline and for AVX2 (wider vectors for the normal
+// equations' sums, each summed in the same order: the same bits). What it calls without
+// inlining (the robust plane, the LDLT solve) is the baseline's.
+void project_rows_plain(const RowsJob& job, std::size_t begin, std::size_t end) { project_rows(job, begin, end); }
+
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define POINTFAIR_HAS_AVX2_FINISH 1
+__attribute__((target("avx2"))) void project_rows_avx2(const RowsJob& job, std::size_t begin, std::size_t end) {
+  project_rows(job, begin, end);
+}
+#else
+#define POINTFAIR_HAS_AVX2_FINISH 0
+#endif
+
+}  // namespace
+
 void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, NeighborhoodsView rows,
                               std::span<const Index> queries, const QuadricProjectionParams& params,
                               std::span<Vec3> out, std::span<const Vec3> anchors) {
@@ -273,33 +382,14 @@ void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3
   require(normals.size() == points.size() && out.size() == n && (queries.empty() || queries.size() == n) &&
               (anchors.empty() || anchors.size() == n),
           "project_rows_to_quadrics: a normal per point, a row, an output and an anchor per query");
-  const double min_cos = std::cos(params.normal_angle * std::numbers::pi / 180.0);
+  const RowsJob job{points, normals, rows, queries, params, out, anchors,
+                    std::cos(params.normal_angle * std::numbers::pi / 180.0)};
+  const bool avx2 = default_step_kernel() == StepKernel::Avx2;
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
-    Scratch s;
-    std::vector<Index> kept;
-    for (std::size_t r = begin; r < end; ++r) {
-      const std::size_t i = queries.empty() ? r : queries[r];
-      const Vec3& ni = normals[i];
-      if (ni.isZero()) {  // no plane, no direction to move along
-        out[r] = points[i];
-        continue;
-      }
-      kept.clear();
-      // With an anchor: whether a neighbour among the nearest min_k lies on another face (its
-      // normal beyond the angle), i.e. the point is near a crease.
-      bool near_crease = false;
-      std::size_t seen = 0;
-      for (const Index j : rows.of(r)) {
-        const bool same_face = std::abs(ni.dot(normals[j])) >= min_cos;
-        if (same_face) kept.push_back(j);
-        if (!anchors.empty() && seen++ < static_cast<std::size_t>(params.min_k) && !same_face) near_crease = true;
-      }
-      // Near a crease the anchor's position along the surface may lie past it, off both faces
-      // (the input's noise along the surface): there the point goes where the fit puts it, as
-      // in the free finish; elsewhere the anchor is placed along the normal.
-      const Vec3* anchor = anchors.empty() || near_crease ? nullptr : &anchors[r];
-      out[r] = project_one(points[i], anchor, kept, points, params, s);
-    }
+#if POINTFAIR_HAS_AVX2_FINISH
+    if (avx2) return project_rows_avx2(job, begin, end);
+#endif
+    project_rows_plain(job, begin, end);
   }, 256);
 }
 
