@@ -76,7 +76,12 @@ OurRun run_command(const std::string& cli, const fs::path& in, const fs::path& o
   if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
     throw std::runtime_error("'" + command + "' failed with status " + std::to_string(status));
   const std::string text = slurp(json);
-  for (const char* s : {"read", "neighbors", "steps", "finish", "attributes", "write"}) r.stage[s] = json_number(text, s);
+  // The stages' times are the members of the summary's "seconds" object (its "steps" member
+  // before it is the step count).
+  const std::size_t seconds_at = text.find("\"seconds\": {");
+  const std::string seconds = seconds_at == std::string::npos ? std::string() : text.substr(seconds_at);
+  for (const char* s : {"read", "neighbors", "steps", "finish", "attributes", "write"})
+    r.stage[s] = json_number(seconds, s);
   r.steps = static_cast<int>(json_number(text, "steps"));
   r.k = static_cast<int>(json_number(text, "k"));
   return r;
