@@ -174,7 +174,7 @@ void QuadricProjectionParams::validate() const {
           "quadric curvature reach must be >= 0, got " + std::to_string(curvature_reach));
   require(min_k >= 10, "quadric min k must be >= 10, got " + std::to_string(min_k));
   require(passes >= 1 && passes <= 10, "quadric passes must be in 1..10, got " + std::to_string(passes));
-  require(iterations >= 0, "quadric iterations must be >= 0, got " + std::to_string(iterations));
+  require(iterations >= 0 && iterations <= 20, "quadric iterations must be in 0..20, got " + std::to_string(iterations));
   require(inlier_bound > 0.0, "quadric inlier bound must be > 0, got " + std::to_string(inlier_bound));
   require(placement_turn >= 0.0 && std::isfinite(placement_turn),
           "quadric placement turn must be >= 0, got " + std::to_string(placement_turn));

@@ -56,6 +56,7 @@ std::map<std::string, std::string> library_defaults() {
       {"quadric-angle", text(q.normal_angle)},
       {"quadric-degree", text(q.degree)},
       {"quadric-passes", text(q.passes)},
+      {"quadric-iterations", text(q.iterations)},
       {"quadric-curvature-reach", text(q.curvature_reach)},
       {"quadric-min-k", text(q.min_k)},
   };

@@ -164,12 +164,16 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
             s.flow.normal_estimator = parse_choice<NormalEstimator>(
                 v, "normal", {{"pca", NormalEstimator::Pca}, {"robust", NormalEstimator::Robust}});
           });
-  p.value("robust-seed", "N", "Nearest neighbours of the robust frame's seed plane. Default 6.",
+  const RobustFrameParams robust = SmoothParams{}.flow.robust;
+  p.value("robust-seed", "N",
+          "Nearest neighbours of the robust frame's seed plane. Default " + std::to_string(robust.seed_neighbors) + ".",
           [&s](std::string_view v) { s.flow.robust.seed_neighbors = parse_int(v, "--robust-seed"); });
-  p.value("robust-iterations", "N", "Reweighting passes of the robust frame. Default 3.",
+  p.value("robust-iterations", "N",
+          "Reweighting passes of the robust frame. Default " + std::to_string(robust.iterations) + ".",
           [&s](std::string_view v) { s.flow.robust.iterations = parse_int(v, "--robust-iterations"); });
   p.value("robust-bound", "C",
-          "Tukey bound of the robust frame in robust-scale units (dimensionless). Default 3.",
+          "Tukey bound of the robust frame in robust-scale units (dimensionless). Default " +
+              format_number(robust.inlier_bound) + ".",
           [&s](std::string_view v) { s.flow.robust.inlier_bound = parse_double(v, "--robust-bound"); });
   p.value("rebuild-every", "M",
           "Rebuild the neighbourhoods from the current positions every M steps; 0 = never "
@@ -254,6 +258,10 @@ void add_finish_options(ArgumentParser& p, SmoothParams& s) {
           "Passes of the finish, each with neighbourhoods, normals and fits from the last one's "
           "result (1..10). Default " + std::to_string(d.passes) + ".",
           [finish](std::string_view v) { finish().passes = parse_int(v, "--quadric-passes"); });
+  p.value("quadric-iterations", "N",
+          "Tukey reweighting passes of each fit after its first, unweighted one (0..20). Default " +
+              std::to_string(d.iterations) + ".",
+          [finish](std::string_view v) { finish().iterations = parse_int(v, "--quadric-iterations"); });
   p.value("quadric-curvature-reach", "C",
           "Fit each quadric only to the neighbours within C / kappa of the point, kappa the "
           "largest principal curvature of a pilot quadric over its --quadric-min-k nearest: "

@@ -156,8 +156,8 @@ JsonObject finish_json(const SmoothParams& p) {
   const QuadricProjectionParams q = p.finish.value_or(QuadricProjectionParams{});
   JsonObject j;
   j.add("enabled", p.finish.has_value()).add("k", q.k).add("angle_degrees", q.normal_angle)
-      .add("degree", q.degree).add("passes", q.passes).add("curvature_reach", q.curvature_reach)
-      .add("min_k", q.min_k);
+      .add("degree", q.degree).add("passes", q.passes).add("iterations", q.iterations)
+      .add("curvature_reach", q.curvature_reach).add("min_k", q.min_k);
   return j;
 }
 
