@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the pointfair tool and runs its main job on the built-in input: the paper's noisy
-# octahedron, 100 anisotropic and 100 isotropic steps, PLY results and a summary in ./out.
+# octahedron, smoothed with the defaults and with the isotropic flow; PLY results, a picture and
+# a summary in ./out.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash tools/install-deps.sh
