@@ -13,6 +13,7 @@
 
 #include "pointfair/io/ply.hpp"
 #include "pointfair/io/point_file.hpp"
+#include "scratch_folder.hpp"
 #include "pointfair/io/xyz.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/shapes.hpp"
@@ -25,21 +26,8 @@ using namespace pointfair;
 
 namespace {
 
-class HostileFiles : public ::testing::Test {
+class HostileFiles : public testing_hardening::ScratchFolder {
  protected:
-  void SetUp() override {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("pointfair_hostile_" + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  fs::path write_bytes(const std::string& name, const std::string& bytes) {
-    const fs::path p = dir_ / name;
-    std::ofstream(p, std::ios::binary) << bytes;
-    return p;
-  }
-  fs::path dir_;
 };
 
 // The reader throws IoError whose message names the file and contains `problem`.

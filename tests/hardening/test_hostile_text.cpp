@@ -4,41 +4,17 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
-#include <random>
 #include <string>
 
 #include "pointfair/io/point_file.hpp"
+#include "scratch_folder.hpp"
 
 namespace fs = std::filesystem;
 using namespace pointfair;
 
 namespace {
 
-class HostileText : public ::testing::Test {
- protected:
-  void SetUp() override {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("pointfair_text_" + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  fs::path write_bytes(const std::string& name, const std::string& bytes) {
-    const fs::path p = dir_ / name;
-    std::ofstream(p, std::ios::binary) << bytes;
-    return p;
-  }
-  static std::string read_error(const fs::path& file) {
-    try {
-      io::read_points(file);
-    } catch (const io::IoError& e) {
-      return e.what();
-    }
-    return "";
-  }
-  fs::path dir_;
-};
+class HostileText : public testing_hardening::ScratchFolder {};
 
 TEST_F(HostileText, CrOnlyLineEndingsAreRefusedNotReadAsOneLine) {
   for (const std::string name : {"a.xyz", "a.csv", "a.txt"}) {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "pointfair/io/point_file.hpp"
+#include "scratch_folder.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "pointfair/tiles/container.hpp"
@@ -25,32 +26,11 @@ using namespace pointfair;
 
 namespace {
 
-class HostileValues : public ::testing::Test {
+class HostileValues : public testing_hardening::ScratchFolder {
  protected:
-  void SetUp() override {
-    std::random_device rd;
-    dir_ = fs::temp_directory_path() / ("pointfair_values_" + std::to_string(rd()));
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  fs::path write_bytes(const std::string& name, const std::string& bytes) {
-    const fs::path p = dir_ / name;
-    std::ofstream(p, std::ios::binary) << bytes;
-    return p;
-  }
   static std::string slurp(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);
     return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  }
-  // The read error of `file`, or "" when it reads.
-  static std::string read_error(const fs::path& file) {
-    try {
-      io::read_points(file);
-    } catch (const io::IoError& e) {
-      return e.what();
-    }
-    return "";
   }
   static io::PointTable three_points(io::ScalarType type) {
     io::PointTable t;
@@ -58,7 +38,6 @@ class HostileValues : public ::testing::Test {
     t.attributes.push_back({"quality", type, {1.0, 12345.0, 3.0}});
     return t;
   }
-  fs::path dir_;
 };
 
 void expect_error(const std::string& error, const std::string& a, const std::string& b) {
