@@ -209,6 +209,9 @@ namespace {
     s.h[j] = d.dot(n);
   }
   s.residuals.resize(m);
+  // The anchor in p's frame: its tangent coordinates and its height over p's plane.
+  const Vec3 to_anchor = anchor != nullptr ? Vec3(*anchor - p) : Vec3::Zero();
+  const double at[2] = {to_anchor.dot(t1), to_anchor.dot(t2)};
   std::size_t count = m;
   if (params.curvature_reach > 0.0 && m > static_cast<std::size_t>(params.min_k) + 1) {
     // A pilot quadric over the nearest min_k neighbours gives the largest principal
@@ -223,10 +226,7 @@ namespace {
       // On a surface that turns by more than placement_turn between p and the anchor, the
       // fit's height at the anchor strays from the surface more than at p (measured on the
       // bunny and the torus): the anchor is not placed, p is projected as without one.
-      if (anchor != nullptr) {
-        const Vec3 d = *anchor - p;
-        if (kappa * std::hypot(d.dot(t1), d.dot(t2)) > params.placement_turn) anchor = nullptr;
-      }
+      if (anchor != nullptr && kappa * std::hypot(at[0], at[1]) > params.placement_turn) anchor = nullptr;
       const double radius = params.curvature_reach / std::max(kappa, 1e-300);
       count = pilot;
       while (count < m && s.u[count] * s.u[count] + s.v[count] * s.v[count] + s.h[count] * s.h[count] <= radius * radius)
@@ -248,9 +248,7 @@ namespace {
   // coordinates. The fit at p is clamped as above; the height at the anchor is shifted by the
   // same amount. An anchor outside the fit's reach (which the fit would extrapolate to) goes
   // onto the plane at the clamped height of p instead.
-  const Vec3 d = *anchor - p;
-  const double at[2] = {d.dot(t1), d.dot(t2)};
-  const double anchor_height = d.dot(n);
+  const double anchor_height = to_anchor.dot(n);
   double height_at = 0.0;
   const bool fitted = params.degree == 3 ? fit_height<3>(params, count, s, height, nullptr, &scale, at, &height_at)
                                          : fit_height<2>(params, count, s, height, nullptr, &scale, at, &height_at);
