@@ -678,6 +678,10 @@ struct Scratch {
   Index packed_id[kRankSortMax + 8];
   double sorted_d2[kRankSortMax];
   Index sorted_id[kRankSortMax];
+  // The same for more candidates than the rank sort takes.
+  std::vector<double> large_d2;
+  std::vector<Index> large_id;
+  std::vector<Entry> large;
   std::vector<Index> pending, still;
   double guess = 0.0;  // squared distance: the first selection threshold
 };
@@ -927,7 +931,17 @@ class Search {
       }
       nearest.assign_sorted(s.sorted_d2, s.sorted_id, c);
     } else {
-      nearest.offer_within(d2, block.id.data(), m, t);
+      // Too many for the rank sort (a large k): the nearest `want` of them by a partial sort
+      // in the same canonical order, instead of inserting each into a sorted list.
+      const std::size_t found = std::min(c, want);
+      select_nearest(s, d2, block.id.data(), m, t, c, found);
+      const double last = found > 0 ? s.large_d2[found - 1] : 0.0;
+      if (within_block(q, cell, ring, found == want ? last : max_d2_)) {
+        if (found == want) s.guess = 1.15 * last;
+        write_row(q_.row(e), g_.order[pos], s.large_id.data(), static_cast<int>(found), last);
+        return true;
+      }
+      nearest.assign_sorted(s.large_d2.data(), s.large_id.data(), found);
     }
 
     if (!within_block(q, cell, ring, nearest.full() ? nearest.last() : max_d2_) &&
@@ -936,6 +950,25 @@ class Search {
     if (nearest.full()) s.guess = 1.15 * nearest.last();
     write_row(q_.row(e), g_.order[pos], nearest.entries(), nearest.count(), s.ids.data());
     return true;
+  }
+
+  // The `found` nearest of the c candidates within t (d2, ids: m of them), ascending by
+  // distance, ties by the smaller index (the order Nearest keeps), into s.large_d2/large_id.
+  static void select_nearest(Scratch& s, const double* d2, const Index* ids, std::size_t m, double t,
+                             std::size_t c, std::size_t found) {
+    s.large_d2.resize(c + 8);
+    s.large_id.resize(c + 8);
+    pack_within(d2, ids, m, t, s.large_d2.data(), s.large_id.data());
+    s.large.resize(c);
+    for (std::size_t j = 0; j < c; ++j) s.large[j] = {s.large_d2[j], s.large_id[j]};
+    const auto closer = [](const Entry& a, const Entry& b) { return a.d2 < b.d2 || (a.d2 == b.d2 && a.id < b.id); };
+    const auto end = s.large.begin() + static_cast<std::ptrdiff_t>(found);
+    std::nth_element(s.large.begin(), end, s.large.end(), closer);
+    std::sort(s.large.begin(), end, closer);
+    for (std::size_t j = 0; j < found; ++j) {
+      s.large_d2[j] = s.large[j].d2;
+      s.large_id[j] = s.large[j].id;
+    }
   }
 
   // True if no point outside the block could enter the result: the want-th distance (or the
