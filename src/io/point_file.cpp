@@ -25,7 +25,7 @@ std::string lower_extension(const fs::path& file) {
 Format format_of(const fs::path& file) {
   const std::string extension = lower_extension(file);
   if (extension == ".ply") return Format::Ply;
-  if (extension == ".xyz" || extension == ".txt" || extension == ".pts" || extension == ".csv") {
+  if (extension == ".xyz" || extension == ".txt" || extension == ".pts" || extension == ".csv" || extension == ".asc") {
     return Format::Text;
   }
   // read_las explains how to decompress a .laz file.
@@ -35,7 +35,7 @@ Format format_of(const fs::path& file) {
     detail::fail(file, "HDF5 files are not supported by this build yet");
   }
   detail::fail(file, "unknown file extension '" + file.extension().string() +
-                         "' (expected .ply, .las, .xyz, .txt, .pts or .csv)");
+                         "' (expected .ply, .las, .xyz, .txt, .pts, .csv or .asc)");
 }
 
 }  // namespace
@@ -43,7 +43,7 @@ Format format_of(const fs::path& file) {
 bool is_supported_point_file(const fs::path& file) {
   const std::string extension = lower_extension(file);
   return extension == ".ply" || extension == ".las" || extension == ".xyz" || extension == ".txt" || extension == ".pts" ||
-         extension == ".csv";
+         extension == ".csv" || extension == ".asc";
 }
 
 PointTable read_points(const fs::path& file, const ReadOptions& options) {

@@ -10,6 +10,7 @@
 #include <string>
 #include <string_view>
 #include <unordered_set>
+#include <utility>
 #include <vector>
 
 #include "file_reader.hpp"
@@ -124,14 +125,37 @@ struct Layout {
 
 constexpr std::size_t kNone = static_cast<std::size_t>(-1);
 
+// CloudCompare's names for the columns it writes (its ASCII export's "//X Y Z R G B Nx Ny
+// Nz ..." header) and ours.
+constexpr std::pair<std::string_view, std::string_view> kCloudCompareNames[] = {
+    {"R", "red"}, {"G", "green"}, {"B", "blue"}, {"A", "alpha"}, {"Nx", "nx"}, {"Ny", "ny"}, {"Nz", "nz"}};
+
+std::string from_cloudcompare(std::string name) {
+  for (const auto& [theirs, ours] : kCloudCompareNames)
+    if (name == theirs) return std::string(ours);
+  return name;
+}
+
+std::string to_cloudcompare(const std::string& name) {
+  for (const auto& [theirs, ours] : kCloudCompareNames)
+    if (name == ours) return std::string(theirs);
+  return name;
+}
+
 Layout layout_from_header(const FileReader& reader, const std::vector<std::string_view>& fields,
                           PointTable& table) {
   Layout layout;
   layout.columns = fields.size();
   layout.attribute_of.assign(fields.size(), kNone);
   bool has[3] = {false, false, false};
+  // CloudCompare's ASCII export starts its header with "//" and names colours and normals
+  // its own way.
+  const bool cloudcompare = !fields.empty() && fields[0].starts_with("//");
   for (std::size_t column = 0; column < fields.size(); ++column) {
-    std::string name(unquote(fields[column]));
+    std::string_view field = fields[column];
+    if (column == 0 && cloudcompare) field.remove_prefix(2);
+    std::string name(unquote(field));
+    if (cloudcompare) name = from_cloudcompare(name);
     if (name.empty()) name = "field_" + std::to_string(column);
     const std::string folded = lower(name);
     if (folded == "x" || folded == "y" || folded == "z") {
@@ -382,7 +406,9 @@ struct OutputColumn {
 // The source's columns (table.text) that the table still has, in the source's order, then
 // the table's other attributes. Sorted so that the attributes with the source's header text
 // come first in `sourced` (how many of them there are).
-std::vector<OutputColumn> output_columns(const PointTable& table, std::size_t& sourced) {
+// With `cloudcompare` (a .asc file), the header names not taken from the source are
+// CloudCompare's ("//X Y Z R G B Nx Ny Nz ...").
+std::vector<OutputColumn> output_columns(const PointTable& table, bool cloudcompare, std::size_t& sourced) {
   std::vector<OutputColumn> columns;
   std::vector<bool> placed(table.attributes.size(), false);
   bool axis_placed[3] = {false, false, false};
@@ -413,9 +439,15 @@ std::vector<OutputColumn> output_columns(const PointTable& table, std::size_t& s
   }
   for (OutputColumn& column : columns) {
     if (!column.header.empty()) continue;
-    column.header = column.axis >= 0 ? std::string(1, static_cast<char>('x' + column.axis))
-                                     : table.attributes[column.attribute].name;
+    const std::string name = column.axis >= 0 ? std::string(1, static_cast<char>('x' + column.axis))
+                                              : table.attributes[column.attribute].name;
+    column.header = cloudcompare ? (column.axis >= 0 ? std::string(1, static_cast<char>('X' + column.axis))
+                                                     : to_cloudcompare(name))
+                                 : name;
   }
+  // CloudCompare's header line starts with "//" (a source's own header keeps its text).
+  if (cloudcompare && !columns.empty() && !columns.front().header.starts_with("//"))
+    columns.front().header.insert(0, "//");
   sourced = static_cast<std::size_t>(std::count(placed.begin(), placed.end(), true));
   return columns;
 }
@@ -450,7 +482,7 @@ class XyzChunkWriter final : public PointChunkWriter {
     }
     schema_.text = schema.text;
     std::size_t sourced = 0;
-    columns_ = output_columns(schema_, sourced);
+    columns_ = output_columns(schema_, lower(file.extension().string()) == ".asc", sourced);
     const bool header = schema.text ? schema.text->header : !schema_.attributes.empty();
     // Only names that go into a header line must read back from it; the source's own
     // columns keep their header text (which may be quoted, or hold blanks between commas).

@@ -357,6 +357,17 @@ TEST_F(CliTest, CurvatureWritesEveryAttribute) {
   std::vector<double> h = t.find("mean_curvature")->values;
   std::nth_element(h.begin(), h.begin() + static_cast<long>(h.size() / 2), h.end());
   EXPECT_NEAR(h[h.size() / 2], 1.0, 0.35);
+  // In a PLY file the attributes are named scalar_*, the names CloudCompare loads as scalar
+  // fields; the normals and colours keep their standard names.
+  const fs::path ply = dir_ / "curv.ply";
+  ASSERT_EQ(run("curvature " + in.string() + " " + ply.string() + " --quiet").exit_code, 0);
+  const io::PointTable p = io::read_points(ply);
+  for (const char* name : {"nx", "ny", "nz", "scalar_k1", "scalar_k2", "scalar_d1x", "scalar_d2z",
+                           "scalar_mean_curvature", "scalar_laplacian_norm", "scalar_feature_class", "red"})
+    EXPECT_NE(p.find(name), nullptr) << name;
+  EXPECT_EQ(p.find("k1"), nullptr);
+  ASSERT_NE(p.find("scalar_mean_curvature"), nullptr);
+  EXPECT_EQ(p.find("scalar_mean_curvature")->values.size(), t.find("mean_curvature")->values.size());
 }
 
 TEST_F(CliTest, HelpListsUnitsAndDefaults) {

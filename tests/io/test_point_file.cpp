@@ -58,7 +58,7 @@ TEST(PointFile, UnknownExtension) {
   TempDir dir;
   const auto file = dir / "cloud.foo";
   write_file(file, "1 2 3\n");
-  const char* expected = "unknown file extension '.foo' (expected .ply, .las, .xyz, .txt, .pts or .csv)";
+  const char* expected = "unknown file extension '.foo' (expected .ply, .las, .xyz, .txt, .pts, .csv or .asc)";
   expect_io_error([&] { read_points(file); }, file, expected);
   expect_io_error([&] { write_points(dir / "out.foo", small_table()); }, dir / "out.foo", expected);
   expect_io_error([&] { read_points(dir / "noextension"); }, dir / "noextension",

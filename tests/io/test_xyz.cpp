@@ -314,5 +314,45 @@ TEST(XyzLayout, ColumnsAddedToAFileWithHeaderAreNamedAfterItsOwn) {
   EXPECT_EQ(read_file(dir / "out.csv"), "x;y;z;i;red\n1;2;3;9;255\n");
 }
 
+TEST(XyzCloudCompare, AsciiExportIsReadWithItsColoursNormalsAndScalarFields) {
+  TempDir dir;
+  // As CloudCompare 2.11 writes it (-C_EXPORT_FMT ASC -ADD_HEADER; with -SEP COMMA as well).
+  const std::string text =
+      "//X Y Z R G B k2 Nx Ny Nz\n"
+      "0.000000 0.000000 0.000000 255 0 10 2.500000 0.000978 0.000978 0.999999\n"
+      "1.000000 0.000000 0.000000 0 255 20 2.500000 0.000978 0.000978 0.999999\n";
+  for (const char* name : {"cloud.asc", "cloud.txt"}) {
+    write_file(dir / name, text);
+    const PointTable table = read_xyz(dir / name);
+    ASSERT_EQ(table.size(), 2U);
+    EXPECT_EQ(table.positions[1], Vec3(1, 0, 0));
+    EXPECT_EQ(names_of(table), (std::vector<std::string>{"red", "green", "blue", "k2", "nx", "ny", "nz"}));
+    EXPECT_EQ(table.find("green")->values, (std::vector<double>{0, 255}));
+    EXPECT_EQ(table.find("nz")->values[0], 0.999999);
+    // Written back: the same text, header included.
+    EXPECT_EQ(round_trip(dir, name, text), text);
+  }
+  write_file(dir / "comma.asc", "//X,Y,Z,R,G,B\n1,2,3,4,5,6\n");
+  EXPECT_EQ(names_of(read_xyz(dir / "comma.asc")), (std::vector<std::string>{"red", "green", "blue"}));
+}
+
+TEST(XyzCloudCompare, AscOutputGetsCloudComparesHeader) {
+  TempDir dir;
+  PointTable table;
+  table.positions = {Vec3(1, 2, 3), Vec3(4, 5, 6)};
+  table.set("nx", ScalarType::Float32, {0, 1});
+  table.set("ny", ScalarType::Float32, {0, 0});
+  table.set("nz", ScalarType::Float32, {1, 0});
+  table.set("red", ScalarType::UInt8, {255, 0});
+  table.set("k1", ScalarType::Float32, {0.5, -0.25});
+  write_xyz(dir / "out.asc", table);
+  EXPECT_EQ(read_file(dir / "out.asc"), "//X Y Z Nx Ny Nz R k1\n1 2 3 0 0 1 255 0.5\n4 5 6 1 0 0 0 -0.25\n");
+  // Read back under our names.
+  EXPECT_EQ(names_of(read_xyz(dir / "out.asc")), (std::vector<std::string>{"nx", "ny", "nz", "red", "k1"}));
+  // Other text files keep our names.
+  write_xyz(dir / "out.xyz", table);
+  EXPECT_EQ(read_file(dir / "out.xyz").substr(0, 19), "x y z nx ny nz red ");
+}
+
 }  // namespace
 }  // namespace pointfair::io

@@ -51,6 +51,7 @@ int run_smooth(const Args& args) {
   set_thread_count(output.threads);
   // A named pipe or a device at OUT is refused before any work, not after it.
   io::require_output_path(output_path);
+  output.attribute_prefix = attribute_prefix_for(output_path);
 
   const auto t_start = std::chrono::steady_clock::now();
   io::PointTable table = read_input(input, output.quiet);

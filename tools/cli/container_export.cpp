@@ -136,6 +136,7 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
   // The result columns, without colours: those are added here with the global range.
   OutputOptions columns = out;
   columns.colour_by = ColourBy::None;
+  columns.attribute_prefix = attribute_prefix_for(output);
   const auto add_columns = [&](io::PointTable& table, const PointAttributes& a) {
     if (!results) return;
     add_result_columns(table, a, columns, out.attributes, curvatures);

@@ -20,6 +20,10 @@ struct OutputOptions {
   double colour_clip = 0.01;
   /// Also write normal, k1, k2, d1, d2, H, |A| and feature class per point.
   bool attributes = false;
+  /// Prefix of the attribute columns' names (k1 ... feature_class, not the normals):
+  /// "scalar_" for a PLY output (attribute_prefix_for), which CloudCompare loads as scalar
+  /// fields only under such names; empty elsewhere.
+  std::string attribute_prefix;
   /// PLY encoding: "binary", "binary-be", "ascii"; empty: a PLY input's, else "binary".
   std::string encoding;
   bool json = false;

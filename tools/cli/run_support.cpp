@@ -1,5 +1,7 @@
 #include "run_support.hpp"
 
+#include <cctype>
+
 #include <cstdio>
 
 #include <algorithm>
@@ -50,6 +52,12 @@ io::ScalarType curvature_type(const PointAttributes& a) {
   return io::ScalarType::Float32;
 }
 
+std::string attribute_prefix_for(const std::filesystem::path& output) {
+  std::string extension = output.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension == ".ply" ? "scalar_" : "";
+}
+
 void add_result_columns(io::PointTable& table, const PointAttributes& a,
                         const OutputOptions& output, bool all_attributes, io::ScalarType curvature_type) {
   const std::size_t n = table.size();
@@ -71,19 +79,20 @@ void add_result_columns(io::PointTable& table, const PointAttributes& a,
       const char* axis = c == 0 ? "x" : c == 1 ? "y" : "z";
       table.set(prefix + axis, ScalarType::Float32, column([&](std::size_t i) { return a.normal[i][c]; }));
     }
-    table.set("k1", curvature_type, a.k1);
-    table.set("k2", curvature_type, a.k2);
+    const std::string& named = output.attribute_prefix;
+    table.set(named + "k1", curvature_type, a.k1);
+    table.set(named + "k2", curvature_type, a.k2);
     for (int c = 0; c < 3; ++c) {
       const char* axis = c == 0 ? "x" : c == 1 ? "y" : "z";
-      table.set(std::string("d1") + axis, ScalarType::Float32, column([&](std::size_t i) { return a.d1[i][c]; }));
+      table.set(named + "d1" + axis, ScalarType::Float32, column([&](std::size_t i) { return a.d1[i][c]; }));
     }
     for (int c = 0; c < 3; ++c) {
       const char* axis = c == 0 ? "x" : c == 1 ? "y" : "z";
-      table.set(std::string("d2") + axis, ScalarType::Float32, column([&](std::size_t i) { return a.d2[i][c]; }));
+      table.set(named + "d2" + axis, ScalarType::Float32, column([&](std::size_t i) { return a.d2[i][c]; }));
     }
-    table.set("mean_curvature", curvature_type, a.mean_curvature);
-    table.set("laplacian_norm", curvature_type, a.laplacian_norm);
-    table.set("feature_class", ScalarType::UInt8,
+    table.set(named + "mean_curvature", curvature_type, a.mean_curvature);
+    table.set(named + "laplacian_norm", curvature_type, a.laplacian_norm);
+    table.set(named + "feature_class", ScalarType::UInt8,
               column([&](std::size_t i) { return static_cast<double>(a.feature[i]); }));
   }
   if (output.colour_by != ColourBy::None) {

@@ -24,8 +24,12 @@ std::optional<io::PlyEncoding> ply_encoding(const std::string& encoding);
 void write_output(const std::filesystem::path& path, const io::PointTable& table,
                   const OutputOptions& output, const std::filesystem::path& input = {});
 
+/// OutputOptions::attribute_prefix for an output file: "scalar_" for PLY, else empty.
+std::string attribute_prefix_for(const std::filesystem::path& output);
+
 /// Replaces the input's normal columns (io::normal_columns) by the new normals, adds colour
-/// (red/green/blue) when output.colour_by asks and, if asked, the per-point attribute columns.
+/// (red/green/blue) when output.colour_by asks and, if asked, the per-point attribute columns
+/// (named with output.attribute_prefix).
 /// The curvature columns (k1, k2, mean_curvature, laplacian_norm) are `curvature_type`.
 void add_result_columns(io::PointTable& table, const PointAttributes& attributes,
                         const OutputOptions& output, bool all_attributes,

@@ -19,11 +19,11 @@ struct WriteOptions {
 };
 
 /// True if the extension (case-insensitive) is one read_points/write_points handle:
-/// .ply, .las, .xyz, .txt, .pts or .csv.
+/// .ply, .las, .xyz, .txt, .pts, .csv or .asc.
 bool is_supported_point_file(const std::filesystem::path& file);
 
 /// Reads `file` with read_ply (.ply), read_las (.las; .laz is refused with a hint to
-/// decompress it) or read_xyz (.xyz .txt .pts .csv), case-insensitively.
+/// decompress it) or read_xyz (.xyz .txt .pts .csv .asc), case-insensitively.
 /// Throws IoError "<file>: <problem>": "unknown file extension '.foo' (expected ...)",
 /// "... files are not supported by this build yet" for .h5/.hdf5,
 /// "cannot open: No such file or directory", or any error of the format's reader.

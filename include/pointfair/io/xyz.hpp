@@ -1,5 +1,5 @@
 #pragma once
-// Text point files (.xyz, .txt, .pts, .csv): one point per line.
+// Text point files (.xyz, .txt, .pts, .csv, .asc): one point per line.
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -12,7 +12,9 @@ namespace pointfair::io {
 /// Reads a text point file. Values are separated by whitespace, commas or semicolons; blank
 /// lines and lines starting with '#' are skipped. If a token of the first remaining line is
 /// not a number, that line is a header naming the columns (x, y, z required, matched
-/// case-insensitively; other names kept as written). Without a header the columns are
+/// case-insensitively; other names kept as written). A header starting with "//" is
+/// CloudCompare's (its ASCII export: "//X Y Z R G B Nx Ny Nz ..."): R G B A and Nx Ny Nz are
+/// read as red green blue alpha and nx ny nz. Without a header the columns are
 /// x y z, then nx ny nz when there are exactly 6 columns, otherwise extras named
 /// "field_<column>" (0-based, so the fourth column is "field_3"). A first line holding a
 /// single integer (a point count, as in many .pts files) is skipped. Every attribute is
@@ -31,7 +33,9 @@ std::unique_ptr<PointChunkReader> open_xyz_reader(const std::filesystem::path& f
 
 /// Writes `table` atomically as text: a header line "x y z <attribute names...>" when there
 /// are attributes, then one line per point with the shortest decimal text that reads back
-/// as the same double. Values are separated by ',' for a .csv file and by ' ' otherwise.
+/// as the same double. Values are separated by ',' for a .csv file and by ' ' otherwise. A
+/// .asc file gets CloudCompare's header ("//X Y Z R G B Nx Ny Nz <other names>") unless the
+/// source has a header of its own.
 /// Throws IoError "<file>: <problem>" for a non-finite position, an attribute whose size
 /// differs from the number of points, a name that cannot be read back from the header
 /// (empty, containing a separator or '#', duplicate, or x/y/z in any case) or a write failure.
