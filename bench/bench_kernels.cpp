@@ -5,11 +5,11 @@
 #include <limits>
 #include <vector>
 
+#include "pointfair/common/parallel.hpp"
 #include "pointfair/euler_step.hpp"
 #include "pointfair/kd_tree.hpp"
 #include "pointfair/knn_grid.hpp"
 #include "pointfair/neighborhoods.hpp"
-#include "pointfair/parallel.hpp"
 #include "pointfair/shapes.hpp"
 
 namespace {

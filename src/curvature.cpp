@@ -4,7 +4,7 @@
 #include <numbers>
 #include <string>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 
 namespace pointfair {
 

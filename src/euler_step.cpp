@@ -14,8 +14,8 @@
 #include <type_traits>
 #include <vector>
 
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "covariance_normal.hpp"
 #include "robust_plane_fit.hpp"
 

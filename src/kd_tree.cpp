@@ -8,7 +8,7 @@
 
 #include <nanoflann.hpp>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 
 namespace pointfair {
 namespace {

@@ -20,12 +20,12 @@
 #include <immintrin.h>
 #endif
 
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/kd_tree.hpp"
 #include "pointfair/knn_select.hpp"
 #include "pointfair/neighborhoods.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
-#include "huge_pages.hpp"
+#include "common/huge_pages.hpp"
 
 namespace pointfair {
 namespace {

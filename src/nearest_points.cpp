@@ -5,10 +5,10 @@
 #include <memory>
 #include <string>
 
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/kd_tree.hpp"
 #include "pointfair/neighborhoods.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
 
 namespace pointfair {
 

@@ -8,9 +8,9 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/nearest_points.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
 
 namespace pointfair {
 

@@ -5,11 +5,11 @@
 #include <numeric>
 #include <string>
 
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/kd_tree.hpp"
 #include "pointfair/knn_grid.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
-#include "huge_pages.hpp"
+#include "common/huge_pages.hpp"
 
 namespace pointfair {
 

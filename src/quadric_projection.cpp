@@ -10,9 +10,9 @@
 
 #include <Eigen/Cholesky>
 
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/euler_step.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
 #include "robust_plane_fit.hpp"
 
 namespace pointfair {

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "robust_plane_fit.hpp"
 
 namespace pointfair {

@@ -9,7 +9,7 @@
 
 #include <Eigen/Geometry>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 
 namespace pointfair {
 namespace {

@@ -2,8 +2,8 @@
 
 #include <cmath>
 
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 
 namespace pointfair {
 

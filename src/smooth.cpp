@@ -6,9 +6,9 @@
 #include <Eigen/Geometry>
 #include <string>
 
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/neighborhood_size.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
 #include "pointfair/shrink_compensation.hpp"
 #include "pointfair/spatial_order.hpp"
 

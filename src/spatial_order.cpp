@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdint>
 
-#include "pointfair/params_error.hpp"
-#include "pointfair/parallel.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 
 namespace pointfair {
 namespace {

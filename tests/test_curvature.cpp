@@ -12,8 +12,8 @@
 
 #include <Eigen/Geometry>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/neighborhoods.hpp"
-#include "pointfair/params_error.hpp"
 #include "pointfair/shapes.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"

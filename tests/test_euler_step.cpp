@@ -15,8 +15,8 @@
 #include <utility>
 #include <vector>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/kd_tree.hpp"
-#include "pointfair/params_error.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/checks.hpp"

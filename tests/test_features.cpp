@@ -10,7 +10,7 @@
 #include <limits>
 #include <vector>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/clouds.hpp"

@@ -13,10 +13,10 @@
 #include <string>
 #include <vector>
 
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/kd_tree.hpp"
 #include "pointfair/neighborhoods.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"
 

@@ -10,8 +10,8 @@
 #include <numeric>
 #include <vector>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/kd_tree.hpp"
-#include "pointfair/params_error.hpp"
 #include "support/checks.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"

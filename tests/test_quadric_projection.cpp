@@ -10,8 +10,8 @@
 #include <random>
 #include <vector>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/neighborhoods.hpp"
-#include "pointfair/params_error.hpp"
 #include "pointfair/quadric_projection.hpp"
 #include "pointfair/robust_frame.hpp"
 #include "pointfair/shapes.hpp"

@@ -11,8 +11,8 @@
 #include <random>
 #include <vector>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/neighborhoods.hpp"
-#include "pointfair/params_error.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"
 

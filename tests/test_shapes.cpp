@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "support/checks.hpp"
 
 namespace pointfair {

@@ -15,7 +15,7 @@
 
 #include <Eigen/Geometry>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/shapes.hpp"
 #include "support/checks.hpp"
 #include "support/clouds.hpp"

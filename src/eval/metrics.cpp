@@ -4,10 +4,10 @@
 #include <cmath>
 #include <numbers>
 
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/frame.hpp"
 #include "pointfair/kd_tree.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
 
 namespace pointfair::eval {
 

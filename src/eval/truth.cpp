@@ -11,6 +11,7 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/eval/aabb_tree.hpp"
 #include "pointfair/eval/metrics.hpp"
 #include "pointfair/io/atomic_file.hpp"
@@ -19,7 +20,6 @@
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/kd_tree.hpp"
 #include "pointfair/mesh_distance.hpp"
-#include "pointfair/params_error.hpp"
 
 namespace pointfair::eval {
 

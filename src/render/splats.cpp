@@ -5,10 +5,10 @@
 #include <limits>
 #include <numbers>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/frame.hpp"
-#include "pointfair/neighborhoods.hpp"
 #include "pointfair/kd_tree.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/neighborhoods.hpp"
 
 namespace pointfair::render {
 

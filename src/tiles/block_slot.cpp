@@ -3,7 +3,7 @@
 #include <span>
 #include <utility>
 
-#include "pointfair/parallel.hpp"
+#include "pointfair/common/parallel.hpp"
 #include "pointfair/shrink_compensation.hpp"
 
 namespace pointfair::tiles::detail {

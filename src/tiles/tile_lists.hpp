@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "pointfair/common/parallel.hpp"
 #include "pointfair/neighborhoods.hpp"
-#include "pointfair/parallel.hpp"
 #include "vector_bytes.hpp"
 
 namespace pointfair::tiles::detail {

@@ -9,8 +9,8 @@
 #include <string>
 #include <vector>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/neighborhoods.hpp"
-#include "pointfair/params_error.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/clouds.hpp"

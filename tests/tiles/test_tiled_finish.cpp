@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/quadric_projection.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"

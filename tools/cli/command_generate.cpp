@@ -5,7 +5,7 @@
 #include <filesystem>
 
 #include "commands.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "run_support.hpp"
 #include "pointfair/eval/truth.hpp"
 #include "pointfair/shapes.hpp"

@@ -13,16 +13,16 @@
 #include "out_of_core.hpp"
 #include "progress.hpp"
 #include "run_support.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
-#include "pointfair/version.hpp"
 
 namespace pointfair::cli {
 

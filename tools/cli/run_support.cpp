@@ -7,7 +7,7 @@
 #include <limits>
 #include <iostream>
 
-#include "pointfair/colour.hpp"
+#include "pointfair/common/colour.hpp"
 #include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/shapes.hpp"

@@ -36,7 +36,7 @@
 #include <optional>
 #include <string>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/quadric_projection.hpp"
 #include "pointfair/smooth.hpp"
 

@@ -1,5 +1,5 @@
 // The parallel facade, and MATH.md step 9: results bit-identical for any thread count.
-#include "pointfair/parallel.hpp"
+#include "pointfair/common/parallel.hpp"
 
 #include <gtest/gtest.h>
 

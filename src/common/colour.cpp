@@ -1,4 +1,4 @@
-#include "pointfair/colour.hpp"
+#include "pointfair/common/colour.hpp"
 
 #include <algorithm>
 #include <cmath>

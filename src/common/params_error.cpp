@@ -1,4 +1,4 @@
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 
 #include <cmath>
 #include <sstream>

@@ -1,4 +1,4 @@
-#include "pointfair/parallel.hpp"
+#include "pointfair/common/parallel.hpp"
 
 #include <algorithm>
 #include <atomic>

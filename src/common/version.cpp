@@ -1,4 +1,4 @@
-#include "pointfair/version.hpp"
+#include "pointfair/common/version.hpp"
 
 namespace pointfair {
 const char* version() { return POINTFAIR_VERSION; }

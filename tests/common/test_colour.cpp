@@ -1,6 +1,6 @@
 // Colouring by a scalar: hue 0 (red) at the minimum to 1.5 pi (270 degrees) at the maximum,
 // full saturation and value, linear in the scalar.
-#include "pointfair/colour.hpp"
+#include "pointfair/common/colour.hpp"
 
 #include <gtest/gtest.h>
 
