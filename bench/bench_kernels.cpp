@@ -7,9 +7,9 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/euler_step.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/knn_grid.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/neighbors/knn_grid.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/shapes.hpp"
 
 namespace {

@@ -54,8 +54,8 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/version.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 

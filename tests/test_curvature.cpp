@@ -13,7 +13,7 @@
 #include <Eigen/Geometry>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/shapes.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/kd_tree.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/checks.hpp"

@@ -10,7 +10,7 @@
 
 #include <Eigen/Geometry>
 
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "support/checks.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"

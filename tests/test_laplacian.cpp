@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "pointfair/frame.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/quadric_projection.hpp"
 #include "pointfair/robust_frame.hpp"
 #include "pointfair/shapes.hpp"

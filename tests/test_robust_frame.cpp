@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"
 

@@ -10,7 +10,7 @@
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/euler_step.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/shrink_compensation.hpp"
 #include "pointfair/smooth.hpp"

@@ -13,7 +13,7 @@
 #include "pointfair/features.hpp"
 #include "pointfair/frame.hpp"
 #include "pointfair/laplacian.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/robust_frame.hpp"
 
 namespace pointfair {

@@ -12,7 +12,7 @@
 #include <functional>
 #include <span>
 
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/robust_frame.hpp"
 #include "pointfair/types.hpp"
 

@@ -18,7 +18,7 @@
 // the point's neighbourhood and is the same for any thread count or tiling.
 #include <span>
 
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/types.hpp"
 
 namespace pointfair {

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "pointfair/euler_step.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/quadric_projection.hpp"
 
 namespace pointfair {

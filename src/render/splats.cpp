@@ -7,8 +7,8 @@
 
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/frame.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 
 namespace pointfair::render {
 

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "pointfair/euler_step.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "row_map.hpp"
 #include "scratch_file.hpp"
 #include "vector_bytes.hpp"

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "pointfair/common/parallel.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "vector_bytes.hpp"
 
 namespace pointfair::tiles::detail {

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/clouds.hpp"

@@ -11,7 +11,7 @@
 #include "run_support.hpp"
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
-#include "pointfair/neighborhood_size.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/import.hpp"
 

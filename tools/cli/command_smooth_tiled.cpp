@@ -7,7 +7,7 @@
 #include <memory>
 
 #include "commands.hpp"
-#include "pointfair/neighborhood_size.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
 #include "container_export.hpp"
 #include "interrupt.hpp"
 #include "out_of_core.hpp"

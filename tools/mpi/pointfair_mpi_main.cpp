@@ -35,7 +35,7 @@
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/neighborhood_size.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/mpi_ranks.hpp"

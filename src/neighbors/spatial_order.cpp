@@ -1,4 +1,4 @@
-#include "pointfair/spatial_order.hpp"
+#include "pointfair/neighbors/spatial_order.hpp"
 
 #include <algorithm>
 #include <cmath>

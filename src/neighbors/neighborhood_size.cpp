@@ -1,4 +1,4 @@
-#include "pointfair/neighborhood_size.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/nearest_points.hpp"
+#include "pointfair/neighbors/nearest_points.hpp"
 
 namespace pointfair {
 

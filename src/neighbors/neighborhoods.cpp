@@ -1,4 +1,4 @@
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,8 +7,8 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/knn_grid.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/neighbors/knn_grid.hpp"
 #include "common/huge_pages.hpp"
 
 namespace pointfair {

@@ -1,6 +1,6 @@
 // The automatic neighbourhood size (neighborhood_size.hpp): the noise ratio of a sample's
 // neighbourhood, its median over the cloud, and the k it picks; smooth() uses it by default.
-#include "pointfair/neighborhood_size.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include <random>
 #include <vector>
 
-#include "pointfair/kd_tree.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/clouds.hpp"
 

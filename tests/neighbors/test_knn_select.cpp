@@ -1,7 +1,7 @@
 // rank_sort against a plain std::sort by (squared distance, index) on seeded random candidates:
 // distinct distances, many ties and duplicates, zeros and +infinity, every count up to
 // kRankSortMax, on the plain kernel and (where the CPU has it) the AVX2 kernel.
-#include "pointfair/knn_select.hpp"
+#include "pointfair/neighbors/knn_select.hpp"
 
 #include <gtest/gtest.h>
 

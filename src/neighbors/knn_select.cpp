@@ -1,4 +1,4 @@
-#include "pointfair/knn_select.hpp"
+#include "pointfair/neighbors/knn_select.hpp"
 
 #include <cstdint>
 #include <cstdlib>

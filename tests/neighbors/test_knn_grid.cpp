@@ -3,7 +3,7 @@
 // bound d^2 <= eps^2, short rows), on random clouds, surfaces with edges, duplicates, lattice
 // ties and degenerate clouds (identical, collinear, coplanar, far from the origin, tiny, empty,
 // one far outlier), for any thread count.
-#include "pointfair/knn_grid.hpp"
+#include "pointfair/neighbors/knn_grid.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,8 +15,8 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"
 

@@ -1,7 +1,7 @@
 // eps-k neighbourhoods against a brute-force oracle: identical canonical lists (distance, ties
 // by smaller index), self excluded, the eps bound, counts, the automatic eps, and the
 // queries-subset overload.
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/kd_tree.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
 #include "support/checks.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"

@@ -1,4 +1,4 @@
-#include "pointfair/nearest_points.hpp"
+#include "pointfair/neighbors/nearest_points.hpp"
 
 #include <atomic>
 #include <limits>
@@ -7,8 +7,8 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 
 namespace pointfair {
 

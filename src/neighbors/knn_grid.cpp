@@ -1,4 +1,4 @@
-#include "pointfair/knn_grid.hpp"
+#include "pointfair/neighbors/knn_grid.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -22,9 +22,9 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/knn_select.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/neighbors/knn_select.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "common/huge_pages.hpp"
 
 namespace pointfair {

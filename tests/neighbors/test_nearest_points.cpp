@@ -2,7 +2,7 @@
 // query per point, bit for bit: on a noisy surface, on an integer grid (many equal
 // distances), with exact duplicates (more than `want` of some points, of smaller and of
 // larger index), for want from 1 to more than the cloud holds.
-#include "pointfair/nearest_points.hpp"
+#include "pointfair/neighbors/nearest_points.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/kd_tree.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
 #include "support/clouds.hpp"
 
 using namespace pointfair;

@@ -1,6 +1,6 @@
 // KdTree::nearest against a brute-force oracle: canonical order (distance, then smaller index),
 // the radius bound, duplicates and exact ties.
-#include "pointfair/kd_tree.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
 
 #include <gtest/gtest.h>
 

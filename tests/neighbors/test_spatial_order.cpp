@@ -10,10 +10,10 @@
 #include <vector>
 
 #include "pointfair/euler_step.hpp"
+#include "pointfair/neighbors/spatial_order.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/shrink_compensation.hpp"
 #include "pointfair/smooth.hpp"
-#include "pointfair/spatial_order.hpp"
 
 namespace pointfair {
 namespace {

@@ -1,4 +1,4 @@
-#include "pointfair/kd_tree.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
 
 #include <bit>
 #include <cmath>
