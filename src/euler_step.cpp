@@ -16,8 +16,8 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
-#include "covariance_normal.hpp"
-#include "robust_plane_fit.hpp"
+#include "frames/covariance_normal.hpp"
+#include "frames/robust_plane_fit.hpp"
 
 namespace pointfair {
 

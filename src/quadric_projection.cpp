@@ -13,7 +13,7 @@
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/euler_step.hpp"
-#include "robust_plane_fit.hpp"
+#include "frames/robust_plane_fit.hpp"
 
 namespace pointfair {
 namespace {

@@ -6,7 +6,7 @@
 
 #include <vector>
 
-#include "pointfair/frame.hpp"
+#include "pointfair/frames/frame.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"

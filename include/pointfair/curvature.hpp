@@ -13,7 +13,7 @@
 // trace W_i = 2 H_i = k1 + k2 for any sampling. Uniform weights are offered as an option.
 #include <span>
 
-#include "pointfair/frame.hpp"
+#include "pointfair/frames/frame.hpp"
 #include "pointfair/types.hpp"
 
 namespace pointfair {

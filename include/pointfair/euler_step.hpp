@@ -11,10 +11,10 @@
 
 #include "pointfair/curvature.hpp"
 #include "pointfair/features.hpp"
-#include "pointfair/frame.hpp"
+#include "pointfair/frames/frame.hpp"
+#include "pointfair/frames/robust_frame.hpp"
 #include "pointfair/laplacian.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
-#include "pointfair/robust_frame.hpp"
 
 namespace pointfair {
 

@@ -12,8 +12,8 @@
 #include <functional>
 #include <span>
 
+#include "pointfair/frames/robust_frame.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
-#include "pointfair/robust_frame.hpp"
 #include "pointfair/types.hpp"
 
 namespace pointfair {

@@ -6,7 +6,7 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/frame.hpp"
+#include "pointfair/frames/frame.hpp"
 #include "pointfair/neighbors/kd_tree.hpp"
 
 namespace pointfair::eval {

@@ -6,7 +6,7 @@
 #include <numbers>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/frame.hpp"
+#include "pointfair/frames/frame.hpp"
 #include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
 

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstddef>
 
-#include "pointfair/frame.hpp"
+#include "pointfair/frames/frame.hpp"
 
 namespace pointfair::detail {
 

@@ -11,7 +11,7 @@
 // patch every point keeps a weight near 1 and the plane is close to the PCA plane.
 #include <span>
 
-#include "pointfair/frame.hpp"
+#include "pointfair/frames/frame.hpp"
 #include "pointfair/types.hpp"
 
 namespace pointfair {

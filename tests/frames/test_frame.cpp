@@ -1,6 +1,6 @@
 // PCA frames: against Eigen's iterative solver on an explicit covariance about the
 // barycentre, exact planes, degenerate neighbourhoods, and precision far from the origin.
-#include "pointfair/frame.hpp"
+#include "pointfair/frames/frame.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "pointfair/robust_frame.hpp"
+#include "pointfair/frames/robust_frame.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "pointfair/frame.hpp"
+#include "pointfair/frames/frame.hpp"
 
 #include <algorithm>
 #include <cmath>

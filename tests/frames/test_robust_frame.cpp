@@ -1,7 +1,7 @@
 // The robust plane: exact on planes, on the point's own face next to a sharp edge where the
 // PCA plane straddles it, close to PCA on smooth patches, against the plain reference, and
 // its degenerate cases.
-#include "pointfair/robust_frame.hpp"
+#include "pointfair/frames/robust_frame.hpp"
 
 #include <gtest/gtest.h>
 

@@ -11,7 +11,7 @@
 #include <span>
 
 #include "covariance_normal.hpp"
-#include "pointfair/robust_frame.hpp"
+#include "pointfair/frames/robust_frame.hpp"
 
 namespace pointfair::detail {
 
