@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "pointfair/curvature.hpp"
+#include "pointfair/curvature/curvature.hpp"
 
 namespace pointfair {
 

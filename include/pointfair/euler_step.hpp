@@ -9,8 +9,8 @@
 #include <span>
 #include <vector>
 
-#include "pointfair/curvature.hpp"
-#include "pointfair/features.hpp"
+#include "pointfair/curvature/curvature.hpp"
+#include "pointfair/curvature/features.hpp"
 #include "pointfair/frames/frame.hpp"
 #include "pointfair/frames/robust_frame.hpp"
 #include "pointfair/laplacian.hpp"

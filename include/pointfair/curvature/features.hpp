@@ -15,7 +15,7 @@
 #include <cstdint>
 #include <span>
 
-#include "pointfair/curvature.hpp"
+#include "pointfair/curvature/curvature.hpp"
 #include "pointfair/types.hpp"
 
 namespace pointfair {

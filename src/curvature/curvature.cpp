@@ -1,4 +1,4 @@
-#include "pointfair/curvature.hpp"
+#include "pointfair/curvature/curvature.hpp"
 
 #include <cmath>
 #include <numbers>

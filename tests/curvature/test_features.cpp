@@ -1,7 +1,7 @@
 // Feature classes from hand-made principal curvatures, both detection modes; the threshold
 // rules; and the classes of whole scenes after smooth(): a noisy flat ground with a box on it
 // (flat regions stay smooth, the box's creases are found) and clean polytopes.
-#include "pointfair/features.hpp"
+#include "pointfair/curvature/features.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // Directional curvatures and the Weingarten map: MATH.md's exact configurations (regular
 // rings on a paraboloid and a sphere, an exact quadratic form), the eigen-decomposition,
 // the agreement with a plain reference, and the accuracy on random samples.
-#include "pointfair/curvature.hpp"
+#include "pointfair/curvature/curvature.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "pointfair/features.hpp"
+#include "pointfair/curvature/features.hpp"
 
 #include <algorithm>
 #include <cmath>
