@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "pointfair/common/parallel.hpp"
-#include "pointfair/euler_step.hpp"
+#include "pointfair/flow/euler_step.hpp"
 #include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/neighbors/knn_grid.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"

@@ -12,7 +12,7 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/euler_step.hpp"
+#include "pointfair/flow/euler_step.hpp"
 #include "frames/robust_plane_fit.hpp"
 
 namespace pointfair {

@@ -8,9 +8,9 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
+#include "pointfair/flow/shrink_compensation.hpp"
 #include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/neighbors/spatial_order.hpp"
-#include "pointfair/shrink_compensation.hpp"
 
 namespace pointfair {
 namespace {

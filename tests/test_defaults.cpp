@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/euler_step.hpp"
+#include "pointfair/flow/euler_step.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/checks.hpp"
 #include "support/clouds.hpp"

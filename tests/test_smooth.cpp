@@ -1,7 +1,7 @@
 // The whole evolution: agreement with hand-driven Euler steps, rebuilds, noise-free
 // neighbourhoods, degenerate points, invariances (rigid motion, scaling, permutation), the
 // anisotropic flow keeping a cube's edges, per-point attributes, and parameter checks.
-#include "pointfair/shrink_compensation.hpp"
+#include "pointfair/flow/shrink_compensation.hpp"
 #include "pointfair/smooth.hpp"
 
 #include <gtest/gtest.h>

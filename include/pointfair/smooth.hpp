@@ -11,7 +11,7 @@
 #include <string_view>
 #include <vector>
 
-#include "pointfair/euler_step.hpp"
+#include "pointfair/flow/euler_step.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/quadric_projection.hpp"
 

@@ -4,7 +4,7 @@
 #include <utility>
 
 #include "pointfair/common/parallel.hpp"
-#include "pointfair/shrink_compensation.hpp"
+#include "pointfair/flow/shrink_compensation.hpp"
 
 namespace pointfair::tiles::detail {
 

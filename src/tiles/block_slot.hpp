@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "pointfair/euler_step.hpp"
+#include "pointfair/flow/euler_step.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
 #include "row_map.hpp"
 #include "scratch_file.hpp"

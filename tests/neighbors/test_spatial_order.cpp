@@ -9,10 +9,10 @@
 #include <stdexcept>
 #include <vector>
 
-#include "pointfair/euler_step.hpp"
+#include "pointfair/flow/euler_step.hpp"
+#include "pointfair/flow/shrink_compensation.hpp"
 #include "pointfair/neighbors/spatial_order.hpp"
 #include "pointfair/shapes.hpp"
-#include "pointfair/shrink_compensation.hpp"
 #include "pointfair/smooth.hpp"
 
 namespace pointfair {

@@ -1,4 +1,4 @@
-#include "pointfair/shrink_compensation.hpp"
+#include "pointfair/flow/shrink_compensation.hpp"
 
 #include <cmath>
 

@@ -1,4 +1,4 @@
-#include "pointfair/laplacian.hpp"
+#include "pointfair/flow/laplacian.hpp"
 
 #include <cmath>
 

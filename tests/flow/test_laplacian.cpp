@@ -1,6 +1,6 @@
 // The (an)isotropic Laplacian: cut-off weights, the 1/|N| normalisation, sign-freedom of the
 // normal, and agreement with a plain reference on a noisy cloud.
-#include "pointfair/laplacian.hpp"
+#include "pointfair/flow/laplacian.hpp"
 
 #include <gtest/gtest.h>
 

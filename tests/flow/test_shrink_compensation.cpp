@@ -9,10 +9,10 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/euler_step.hpp"
+#include "pointfair/flow/euler_step.hpp"
+#include "pointfair/flow/shrink_compensation.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/shapes.hpp"
-#include "pointfair/shrink_compensation.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/checks.hpp"
 

@@ -1,4 +1,4 @@
-#include "pointfair/euler_step.hpp"
+#include "pointfair/flow/euler_step.hpp"
 
 #include <algorithm>
 #include <array>

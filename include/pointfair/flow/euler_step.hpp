@@ -11,9 +11,9 @@
 
 #include "pointfair/curvature/curvature.hpp"
 #include "pointfair/curvature/features.hpp"
+#include "pointfair/flow/laplacian.hpp"
 #include "pointfair/frames/frame.hpp"
 #include "pointfair/frames/robust_frame.hpp"
-#include "pointfair/laplacian.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
 
 namespace pointfair {

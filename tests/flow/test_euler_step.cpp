@@ -1,7 +1,7 @@
 // One Euler step: MATH.md's exact configurations (plane, cube corner, straight sharp edge),
 // agreement with a plain reference step, the row-subset form, the automatic lambda,
 // degenerate points and parameter validation.
-#include "pointfair/euler_step.hpp"
+#include "pointfair/flow/euler_step.hpp"
 
 #include <gtest/gtest.h>
 
