@@ -20,7 +20,7 @@
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/eval/metrics.hpp"
 #include "pointfair/eval/truth.hpp"
-#include "pointfair/quadric_projection.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/render/splats.hpp"
 #include "pointfair/smooth.hpp"
 

@@ -11,9 +11,9 @@
 #include <string_view>
 #include <vector>
 
+#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/flow/euler_step.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
-#include "pointfair/quadric_projection.hpp"
 
 namespace pointfair {
 

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/quadric_projection.hpp"
 #include "pointfair/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "pointfair/tiles/container.hpp"

@@ -37,7 +37,7 @@
 #include <string>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/quadric_projection.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/smooth.hpp"
 
 namespace pointfair::tiles {

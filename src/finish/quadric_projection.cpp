@@ -1,4 +1,4 @@
-#include "pointfair/quadric_projection.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "pointfair/common/params_error.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/frames/robust_frame.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
-#include "pointfair/quadric_projection.hpp"
 #include "pointfair/shapes.hpp"
 
 namespace pointfair {
