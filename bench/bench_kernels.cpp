@@ -10,7 +10,7 @@
 #include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/neighbors/knn_grid.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace {
 

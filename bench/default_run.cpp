@@ -27,7 +27,7 @@
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/mesh.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 #if defined(POINTFAIR_HAVE_CGAL)
 #include "quality/cgal_peers.hpp"

@@ -56,7 +56,7 @@
 #include "pointfair/common/version.hpp"
 #include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "pointfair/smooth.hpp"
 
 #include "out_of_core_rate.hpp"

@@ -16,7 +16,7 @@
 #include <Eigen/Geometry>
 
 #include "pointfair/common/params_error.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "support/checks.hpp"
 #include "support/clouds.hpp"
 

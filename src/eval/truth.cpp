@@ -18,8 +18,8 @@
 #include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/mesh.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/mesh_distance.hpp"
 #include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/shapes/mesh_distance.hpp"
 
 namespace pointfair::eval {
 

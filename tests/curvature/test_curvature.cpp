@@ -14,7 +14,7 @@
 
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "support/clouds.hpp"
 #include "support/reference.hpp"
 

@@ -14,7 +14,7 @@
 #include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/frames/robust_frame.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair {
 namespace {

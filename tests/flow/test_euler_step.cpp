@@ -17,7 +17,7 @@
 
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/neighbors/kd_tree.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/checks.hpp"
 #include "support/clouds.hpp"

@@ -12,7 +12,7 @@
 #include "pointfair/flow/euler_step.hpp"
 #include "pointfair/flow/shrink_compensation.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/checks.hpp"
 

@@ -16,7 +16,7 @@
 #include "scratch_folder.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/io/xyz.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"

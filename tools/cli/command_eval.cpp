@@ -13,7 +13,7 @@
 #include "pointfair/eval/metrics.hpp"
 #include "pointfair/eval/truth.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair::cli {
 

@@ -8,7 +8,7 @@
 #include "pointfair/common/params_error.hpp"
 #include "run_support.hpp"
 #include "pointfair/eval/truth.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair::cli {
 

@@ -10,7 +10,7 @@
 #include "pointfair/common/colour.hpp"
 #include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair::cli {
 

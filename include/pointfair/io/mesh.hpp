@@ -4,7 +4,7 @@
 #include <filesystem>
 
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair::io {
 

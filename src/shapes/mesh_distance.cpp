@@ -1,4 +1,4 @@
-#include "pointfair/mesh_distance.hpp"
+#include "pointfair/shapes/mesh_distance.hpp"
 
 #include <algorithm>
 #include <cmath>

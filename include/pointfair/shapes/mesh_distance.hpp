@@ -4,7 +4,7 @@
 // paper's polytopes).
 #include <span>
 
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair {
 

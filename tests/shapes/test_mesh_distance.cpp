@@ -1,6 +1,6 @@
 // Point-to-triangle, point-to-segment and point-to-mesh distances against a plain reference
 // (projection onto the plane if it falls inside, otherwise the nearest of the three edges).
-#include "pointfair/mesh_distance.hpp"
+#include "pointfair/shapes/mesh_distance.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Test shapes and samplers: the 4-1 subdivided octahedron, the cube, area-uniform mesh
 // samples, spheres, cylinders, and the seeded Gaussian noise.
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 #include <gtest/gtest.h>
 

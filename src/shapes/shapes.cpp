@@ -1,4 +1,4 @@
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 #include <algorithm>
 #include <cmath>
