@@ -4,7 +4,7 @@
 // paper's polytopes).
 #include <span>
 
-#include "pointfair/shapes/shapes.hpp"
+#include "pointfair/common/triangle_mesh.hpp"
 
 namespace pointfair {
 

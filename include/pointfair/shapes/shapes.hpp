@@ -9,14 +9,10 @@
 #include <span>
 #include <vector>
 
+#include "pointfair/common/triangle_mesh.hpp"
 #include "pointfair/types.hpp"
 
 namespace pointfair {
-
-struct TriangleMesh {
-  std::vector<Vec3> vertices;
-  std::vector<std::array<Index, 3>> triangles;
-};
 
 /// Points with a unit normal each (the true surface normal where the shape has one).
 struct SurfaceSamples {
