@@ -24,7 +24,6 @@
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/neighbors/knn_select.hpp"
-#include "pointfair/neighbors/neighborhoods.hpp"
 #include "common/huge_pages.hpp"
 
 namespace pointfair {

@@ -32,12 +32,12 @@
 #include <span>
 #include <vector>
 
+#include "pointfair/neighbors/neighbor_lists.hpp"
 #include "pointfair/types.hpp"
 
 namespace pointfair {
 
 class KdTree;
-struct Neighborhoods;
 
 /// Points sorted by cell. Read-only after build_cell_grid.
 struct CellGrid {
