@@ -5,12 +5,12 @@
 #include <limits>
 #include <vector>
 
-#include "pointfair/euler_step.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/knn_grid.hpp"
-#include "pointfair/neighborhoods.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/flow/euler_step.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/neighbors/knn_grid.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace {
 

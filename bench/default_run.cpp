@@ -23,11 +23,11 @@
 #include <string>
 #include <vector>
 
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/mesh.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/shapes.hpp"
-#include "pointfair/version.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 #if defined(POINTFAIR_HAVE_CGAL)
 #include "quality/cgal_peers.hpp"

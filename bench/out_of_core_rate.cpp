@@ -8,8 +8,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "pointfair/common/parallel.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/parallel.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"

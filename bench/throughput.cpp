@@ -52,12 +52,12 @@
 #include <malloc.h>
 #endif
 
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/neighborhoods.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/version.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "pointfair/smooth.hpp"
-#include "pointfair/version.hpp"
 
 #include "out_of_core_rate.hpp"
 

@@ -6,11 +6,11 @@
 #include <Eigen/Geometry>
 #include <string>
 
-#include "pointfair/neighborhood_size.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
-#include "pointfair/shrink_compensation.hpp"
-#include "pointfair/spatial_order.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/flow/shrink_compensation.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
+#include "pointfair/neighbors/spatial_order.hpp"
 
 namespace pointfair {
 namespace {

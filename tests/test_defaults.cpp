@@ -8,8 +8,8 @@
 #include <numbers>
 #include <vector>
 
-#include "pointfair/euler_step.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/flow/euler_step.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/checks.hpp"
 #include "support/clouds.hpp"

@@ -1,7 +1,7 @@
 // The whole evolution: agreement with hand-driven Euler steps, rebuilds, noise-free
 // neighbourhoods, degenerate points, invariances (rigid motion, scaling, permutation), the
 // anisotropic flow keeping a cube's edges, per-point attributes, and parameter checks.
-#include "pointfair/shrink_compensation.hpp"
+#include "pointfair/flow/shrink_compensation.hpp"
 #include "pointfair/smooth.hpp"
 
 #include <gtest/gtest.h>
@@ -15,8 +15,8 @@
 
 #include <Eigen/Geometry>
 
-#include "pointfair/params_error.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "support/checks.hpp"
 #include "support/clouds.hpp"
 

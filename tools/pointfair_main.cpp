@@ -13,9 +13,9 @@
 #include "cli/arguments.hpp"
 #include "cli/commands.hpp"
 #include "cli/interrupt.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/params_error.hpp"
-#include "pointfair/version.hpp"
 
 namespace {
 

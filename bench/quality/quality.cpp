@@ -16,11 +16,11 @@
 #include <string>
 #include <vector>
 
-#include "pointfair/colour.hpp"
+#include "pointfair/common/colour.hpp"
+#include "pointfair/common/parallel.hpp"
 #include "pointfair/eval/metrics.hpp"
 #include "pointfair/eval/truth.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/quadric_projection.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/render/splats.hpp"
 #include "pointfair/smooth.hpp"
 

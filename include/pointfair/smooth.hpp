@@ -11,9 +11,9 @@
 #include <string_view>
 #include <vector>
 
-#include "pointfair/euler_step.hpp"
-#include "pointfair/neighborhoods.hpp"
-#include "pointfair/quadric_projection.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
+#include "pointfair/flow/euler_step.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 
 namespace pointfair {
 

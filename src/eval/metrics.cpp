@@ -4,10 +4,10 @@
 #include <cmath>
 #include <numbers>
 
-#include "pointfair/frame.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/frames/frame.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
 
 namespace pointfair::eval {
 

@@ -11,15 +11,15 @@
 #include <sstream>
 #include <unordered_map>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/eval/aabb_tree.hpp"
 #include "pointfair/eval/metrics.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/mesh.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/mesh_distance.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/shapes/mesh_distance.hpp"
 
 namespace pointfair::eval {
 

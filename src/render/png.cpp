@@ -7,9 +7,9 @@
 
 #include <zlib.h>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/params_error.hpp"
 
 namespace pointfair::render {
 

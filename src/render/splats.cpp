@@ -5,10 +5,10 @@
 #include <limits>
 #include <numbers>
 
-#include "pointfair/frame.hpp"
-#include "pointfair/neighborhoods.hpp"
-#include "pointfair/kd_tree.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/frames/frame.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 
 namespace pointfair::render {
 

@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 
 namespace pointfair::tiles {
 

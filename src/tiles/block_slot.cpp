@@ -3,8 +3,8 @@
 #include <span>
 #include <utility>
 
-#include "pointfair/parallel.hpp"
-#include "pointfair/shrink_compensation.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/flow/shrink_compensation.hpp"
 
 namespace pointfair::tiles::detail {
 

@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "pointfair/euler_step.hpp"
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/flow/euler_step.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "row_map.hpp"
 #include "scratch_file.hpp"
 #include "vector_bytes.hpp"

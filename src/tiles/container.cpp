@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/source_layout.hpp"
-#include "pointfair/version.hpp"
 #include "temporary_file.hpp"
 
 namespace pointfair::tiles {

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <limits>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/params_error.hpp"
 
 namespace pointfair::tiles {
 

@@ -10,10 +10,10 @@
 #include <optional>
 #include <unordered_map>
 
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/params_error.hpp"
-#include "pointfair/version.hpp"
 #include "temporary_file.hpp"
 
 namespace pointfair::tiles {

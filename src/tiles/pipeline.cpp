@@ -5,7 +5,7 @@
 #include <mutex>
 #include <thread>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 
 namespace pointfair::tiles {
 

@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "pointfair/neighborhoods.hpp"
-#include "pointfair/parallel.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "vector_bytes.hpp"
 
 namespace pointfair::tiles::detail {

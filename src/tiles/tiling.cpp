@@ -6,7 +6,7 @@
 #include <numeric>
 #include <string>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 
 namespace pointfair::tiles {
 

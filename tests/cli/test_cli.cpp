@@ -15,7 +15,7 @@
 #include "pointfair/io/las.hpp"
 #include "pointfair/io/ply.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace fs = std::filesystem;
 using namespace pointfair;

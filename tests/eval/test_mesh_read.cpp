@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "pointfair/shapes/shapes.hpp"
+
 namespace pointfair::io {
 namespace {
 

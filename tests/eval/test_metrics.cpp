@@ -4,7 +4,7 @@
 
 #include <gtest/gtest.h>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 
 namespace pointfair::eval {
 namespace {

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair {
 namespace {

@@ -2,7 +2,7 @@
 
 #include <gtest/gtest.h>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 
 namespace pointfair::render {
 namespace {

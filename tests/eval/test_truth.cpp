@@ -7,9 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/mesh_distance.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/shapes/mesh_distance.hpp"
 
 namespace pointfair::eval {
 namespace {

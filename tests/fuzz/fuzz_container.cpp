@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"

@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair::testing_cli {
 

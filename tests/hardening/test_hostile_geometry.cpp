@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "pointfair/neighborhoods.hpp"
-#include "pointfair/params_error.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/clouds.hpp"
 

@@ -16,7 +16,7 @@
 #include "cli_child.hpp"
 #include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace fs = std::filesystem;
 using namespace pointfair;

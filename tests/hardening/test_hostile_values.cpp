@@ -16,7 +16,7 @@
 
 #include "pointfair/io/point_file.hpp"
 #include "scratch_folder.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"

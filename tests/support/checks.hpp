@@ -5,7 +5,7 @@
 #include <span>
 #include <vector>
 
-#include "pointfair/neighborhoods.hpp"
+#include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/types.hpp"
 
 namespace pointfair::test {

@@ -13,7 +13,7 @@
 
 #include <Eigen/LU>
 
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "pointfair/types.hpp"
 
 namespace pointfair::test {

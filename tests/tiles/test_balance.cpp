@@ -5,7 +5,7 @@
 #include <numeric>
 #include <random>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/tiles/balance.hpp"
 
 using pointfair::tiles::balance_ranges;

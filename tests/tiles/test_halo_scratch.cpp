@@ -6,8 +6,8 @@
 #include <random>
 #include <vector>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/params_error.hpp"
 #include "tiles_test_util.hpp"
 
 using namespace pointfair;

@@ -9,9 +9,9 @@
 #include <set>
 #include <string>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/io/las.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/params_error.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
 #include "tiles_test_util.hpp"
 

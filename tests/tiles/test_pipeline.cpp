@@ -11,8 +11,8 @@
 #include <thread>
 #include <vector>
 
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 
 using namespace pointfair;
 using namespace pointfair::tiles;

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
-#include "pointfair/quadric_projection.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
 #include "tiles_test_util.hpp"

@@ -8,9 +8,9 @@
 #include <utility>
 #include <vector>
 
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "tiles_test_util.hpp"
 

@@ -3,7 +3,7 @@
 
 #include <algorithm>
 
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "tiles_test_util.hpp"
 
 using namespace pointfair;

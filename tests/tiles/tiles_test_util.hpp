@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/quadric_projection.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 #include "pointfair/smooth.hpp"
 #include "pointfair/tiles/container.hpp"
 

@@ -7,9 +7,9 @@
 #include "pointfair/io/atomic_file.hpp"
 #include "interrupt.hpp"
 #include "run_support.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/attribute_roles.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/version.hpp"
 
 namespace pointfair::cli {
 

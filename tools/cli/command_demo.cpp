@@ -10,13 +10,13 @@
 #include "interrupt.hpp"
 #include "progress.hpp"
 #include "run_support.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
-#include "pointfair/mesh_distance.hpp"
 #include "pointfair/render/png.hpp"
 #include "pointfair/render/splats.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/shapes.hpp"
-#include "pointfair/version.hpp"
+#include "pointfair/shapes/mesh_distance.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair::cli {
 namespace {

@@ -7,13 +7,13 @@
 
 #include "commands.hpp"
 #include "run_support.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/eval/metrics.hpp"
 #include "pointfair/eval/truth.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/params_error.hpp"
-#include "pointfair/shapes.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/version.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair::cli {
 

@@ -5,10 +5,10 @@
 #include <filesystem>
 
 #include "commands.hpp"
-#include "pointfair/params_error.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "run_support.hpp"
 #include "pointfair/eval/truth.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair::cli {
 

@@ -9,11 +9,11 @@
 #include "json_writer.hpp"
 #include "out_of_core.hpp"
 #include "run_support.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/import.hpp"
-#include "pointfair/neighborhood_size.hpp"
-#include "pointfair/version.hpp"
 
 namespace pointfair::cli {
 

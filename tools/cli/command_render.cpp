@@ -6,7 +6,7 @@
 
 #include "commands.hpp"
 #include "run_support.hpp"
-#include "pointfair/parallel.hpp"
+#include "pointfair/common/parallel.hpp"
 #include "pointfair/render/splats.hpp"
 
 namespace pointfair::cli {

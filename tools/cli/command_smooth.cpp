@@ -9,10 +9,10 @@
 #include "progress.hpp"
 #include "number_text.hpp"
 #include "run_support.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/attribute_roles.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
-#include "pointfair/version.hpp"
 
 namespace pointfair::cli {
 namespace {

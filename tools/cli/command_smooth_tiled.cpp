@@ -7,22 +7,22 @@
 #include <memory>
 
 #include "commands.hpp"
-#include "pointfair/neighborhood_size.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
 #include "container_export.hpp"
 #include "interrupt.hpp"
 #include "out_of_core.hpp"
 #include "progress.hpp"
 #include "run_support.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/parallel.hpp"
-#include "pointfair/params_error.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
-#include "pointfair/version.hpp"
 
 namespace pointfair::cli {
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "run_support.hpp"
-#include "pointfair/colour.hpp"
+#include "pointfair/common/colour.hpp"
 #include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/las.hpp"
 #include "pointfair/io/point_file.hpp"

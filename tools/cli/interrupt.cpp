@@ -2,7 +2,7 @@
 
 #include <csignal>
 
-#include "pointfair/parallel.hpp"
+#include "pointfair/common/parallel.hpp"
 
 #include <atomic>
 #include <string>

@@ -3,7 +3,7 @@
 #include <string>
 
 #include "arguments.hpp"
-#include "pointfair/quadric_projection.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/smooth.hpp"
 
 namespace pointfair::cli {

@@ -4,7 +4,7 @@
 #include <filesystem>
 #include <string_view>
 
-#include "pointfair/quadric_projection.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
 
 namespace pointfair::cli {
 

@@ -9,10 +9,10 @@
 #include <limits>
 #include <iostream>
 
-#include "pointfair/colour.hpp"
+#include "pointfair/common/colour.hpp"
 #include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/point_file.hpp"
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair::cli {
 

@@ -30,16 +30,16 @@
 #include "cli/arguments.hpp"
 #include "cli/method_options.hpp"
 #include "cli/out_of_core.hpp"
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/parallel.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
-#include "pointfair/params_error.hpp"
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/mpi_ranks.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
-#include "pointfair/neighborhood_size.hpp"
-#include "pointfair/version.hpp"
 
 namespace {
 

@@ -17,7 +17,7 @@
 #include <memory>
 #include <string>
 
-#include "pointfair/shapes.hpp"
+#include "pointfair/shapes/shapes.hpp"
 
 namespace pointfair::eval {
 

@@ -3,8 +3,8 @@
 // samples. Polygons with more than three corners are split into a fan of triangles.
 #include <filesystem>
 
+#include "pointfair/common/triangle_mesh.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/shapes.hpp"
 
 namespace pointfair::io {
 

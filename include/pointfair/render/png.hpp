@@ -7,7 +7,7 @@
 #include <string_view>
 #include <vector>
 
-#include "pointfair/colour.hpp"
+#include "pointfair/common/colour.hpp"
 
 namespace pointfair::render {
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "pointfair/colour.hpp"
+#include "pointfair/common/colour.hpp"
 #include "pointfair/render/png.hpp"
 #include "pointfair/types.hpp"
 

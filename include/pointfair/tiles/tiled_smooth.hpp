@@ -36,8 +36,8 @@
 #include <optional>
 #include <string>
 
-#include "pointfair/params_error.hpp"
-#include "pointfair/quadric_projection.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/smooth.hpp"
 
 namespace pointfair::tiles {

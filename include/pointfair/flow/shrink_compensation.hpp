@@ -1,0 +1,35 @@
+#pragma once
+// Shrinkage compensation of an Euler step (beyond the paper). Mean curvature flow moves
+// every point of a curved surface toward its centre of curvature: a sphere shrinks while its
+// noise is removed. A compensated step subtracts from each point's update the mean update of
+// its neighbours,
+//   u_i = p_i(n+1) - p_i(n)                       (the flow's own update, euler_step)
+//   c_i = u_i - beta / |N_i| sum_{j in N_i} u_j
+//   p_i(n+1) <- p_i(n) + c_i |u_i| / |c_i|   if |c_i| > |u_i|, else p_i(n) + c_i
+// With beta = 1 this is one step of the bi-Laplacian flow built from the (an)isotropic
+// Laplacian: the curvature of the clean surface moves neighbouring points alike and cancels,
+// while the noise, whose updates change sign from point to point, is still removed. The
+// length cap keeps the step stable: on the mode whose updates alternate between neighbours
+// (eigenvalue 2 of the umbrella operator: two points, or two clusters) the uncapped step
+// multiplies their distance by 1 - 2 tau (1 + beta), -2.2 at tau 0.8 and beta 1; capped,
+// by 1 - 2 tau. Where neighbours move alike (the surface's curvature, the low frequencies
+// that shrink it) |c_i| < |u_i| and the cap is inactive. The sums
+// run over the neighbour list in its canonical order, so the result depends on nothing but
+// the point's neighbourhood and is the same for any thread count or tiling.
+#include <span>
+
+#include "pointfair/neighbors/neighborhoods.hpp"
+#include "pointfair/types.hpp"
+
+namespace pointfair {
+
+/// Row r of `neighborhoods` belongs to point rows[r] (rows empty: row r is point r).
+/// `current` holds step-n positions and `updated` the euler_step output (step n+1 without
+/// compensation) of every point that row r or its neighbours name; next[r] receives the
+/// compensated position of point rows[r]. `next` must not alias `current` or `updated`.
+/// beta in [0, 1]; 0 copies `updated` (bit for bit).
+void compensate_shrinkage(std::span<const Vec3> current, std::span<const Vec3> updated,
+                          NeighborhoodsView neighborhoods, std::span<const Index> rows,
+                          double beta, std::span<Vec3> next);
+
+}  // namespace pointfair

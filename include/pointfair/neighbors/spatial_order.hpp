@@ -1,0 +1,47 @@
+#pragma once
+// A spatially coherent order of a cloud (Morton / Z-order of the quantised positions), and
+// the relabelling of neighbourhoods under a permutation. The flow runs on a cloud stored in
+// this order so that a point's neighbours sit near it in memory; since every point's result
+// depends only on the positions of its neighbours in list order, relabelling changes no bit
+// of the result.
+#include <span>
+#include <vector>
+
+#include "pointfair/neighbors/neighborhoods.hpp"
+#include "pointfair/types.hpp"
+
+namespace pointfair {
+
+/// order[s] = the index of the point stored at position s: points sorted by the Morton code
+/// of their position quantised to 21 bits per axis over the bounding box, ties by index.
+std::vector<Index> spatial_order(std::span<const Vec3> points);
+
+/// The inverse permutation: inverse[order[s]] = s.
+std::vector<Index> inverse_permutation(std::span<const Index> order);
+
+/// Neighbourhoods of the reordered cloud: row s is row order[s] of `nb`, with every index j
+/// replaced by inverse[j]. List order (and so the canonical tie rule by original index) is kept.
+Neighborhoods permute_neighborhoods(const Neighborhoods& nb, std::span<const Index> order,
+                                    std::span<const Index> inverse);
+
+/// The same as nb = permute_neighborhoods(nb, order, inverse), without a second copy.
+void permute_neighborhoods_in_place(Neighborhoods& nb, std::span<const Index> order,
+                                    std::span<const Index> inverse);
+
+/// Neighbourhoods of `points` (built as build_neighborhoods would, canonical in the points'
+/// own indices) for the reordered cloud: row s belongs to point order[s], and every index j is
+/// replaced by row_of[j]. Needs no second copy of the lists.
+Neighborhoods build_reordered_neighborhoods(std::span<const Vec3> points, const NeighborParams& params,
+                                            std::span<const Index> order,
+                                            std::span<const Index> row_of);
+
+/// Reorders `values` in place so that values[s] becomes the old values[order[s]] (one bit
+/// of scratch per point). `inverse` undoes it.
+void permute_in_place(std::vector<Vec3>& values, std::span<const Index> order);
+
+/// out[s] = in[order[s]].
+std::vector<Vec3> gather(std::span<const Vec3> in, std::span<const Index> order);
+/// out[order[s]] = in[s].
+std::vector<Vec3> scatter(std::span<const Vec3> in, std::span<const Index> order);
+
+}  // namespace pointfair

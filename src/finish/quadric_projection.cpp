@@ -1,0 +1,443 @@
+#include "pointfair/finish/quadric_projection.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include <Eigen/Cholesky>
+
+#include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/flow/euler_step.hpp"
+#include "frames/robust_plane_fit.hpp"
+
+namespace pointfair {
+namespace {
+
+// The monomials u^(d-i) v^i of degree d = 0 .. Degree in that order: for Degree 2 the height
+// field h(u, v) = c0 + c1 u + c2 v + c3 u^2 + c4 u v + c5 v^2.
+template <int Degree>
+constexpr int kTerms = (Degree + 1) * (Degree + 2) / 2;
+
+template <int Degree>
+Eigen::Matrix<double, kTerms<Degree>, 1> monomials(double u, double v) {
+  Eigen::Matrix<double, kTerms<Degree>, 1> m;
+  m[0] = 1.0;
+  int t = 1;
+  for (int d = 1; d <= Degree; ++d) {
+    // The terms of degree d from those of degree d - 1 (which start at t - d): times u, then
+    // the last one times v as well.
+    const int previous = t - d;
+    for (int i = 0; i < d; ++i) m[t++] = m[previous + i] * u;
+    m[t++] = m[previous + d - 1] * v;
+  }
+  return m;
+}
+
+// Each row of the design matrix padded to a multiple of four doubles, so that the loops over a
+// row's terms run in whole vectors.
+template <int Degree>
+constexpr int kStride = (kTerms<Degree> + 3) / 4 * 4;
+
+struct Scratch {
+  std::vector<Vec3> offsets;
+  std::vector<double> u, v, h, weights, start_weights, plane_scratch, residuals, design;
+};
+
+double reach_of(const Scratch& s, std::size_t count) {
+  double reach = 0.0;
+  for (std::size_t j = 0; j < count; ++j) reach = std::max(reach, s.u[j] * s.u[j] + s.v[j] * s.v[j]);
+  return std::sqrt(reach);
+}
+
+// row[q] += wa * a[q] for the columns q of rows P.. of the lower triangle, each rounded up to
+// a whole vector of four (the padding is summed, unread); unrolled at compile time.
+template <int P, int Terms, int Stride>
+[[gnu::always_inline]] inline void add_gram_rows(const double* a, double w, double* gram) {
+  if constexpr (P < Terms) {
+    constexpr int columns = std::min(Stride, (P / 4 + 1) * 4);
+    const double wa = w * a[P];
+    double* row = gram + P * Stride;
+    for (int q = 0; q < columns; ++q) row[q] += wa * a[q];
+    add_gram_rows<P + 1, Terms, Stride>(a, w, gram);
+  }
+}
+
+// The lower triangle of sum_j w_j a_j a_j^T into `gram` (kTerms rows of kStride, row p holding
+// columns 0..p and padding beyond) and sum_j w_j h_j a_j into `rhs`, over the rows a_j of
+// `design` whose weight is positive; returns how many those are. Every entry is summed in the
+// rows' order, whatever width the compiler vectorises the loops over the columns with.
+template <int Degree>
+[[gnu::always_inline]] inline std::size_t weighted_normal_equations(const double* design, const double* h, const double* weights,
+                                      std::size_t count, double* gram, double* rhs) {
+  constexpr int terms = kTerms<Degree>;
+  constexpr int stride = kStride<Degree>;
+  std::fill(gram, gram + terms * stride, 0.0);
+  std::fill(rhs, rhs + stride, 0.0);
+  std::size_t kept = 0;
+  for (std::size_t j = 0; j < count; ++j) {
+    const double w = weights[j];
+    if (w <= 0.0) continue;
+    ++kept;
+    const double* a = design + j * stride;
+    const double wh = w * h[j];
+    for (int q = 0; q < stride; ++q) rhs[q] += wh * a[q];
+    add_gram_rows<0, terms, stride>(a, w, gram);
+  }
+  return kept;
+}
+
+// The polynomial fitted to the first `count` points of (s.u, s.v, s.h), weighted by
+// s.weights (reweighted in place): its height at u = v = 0, its second derivatives
+// (h_uu, h_uv, h_vv) when `second` is not null, and the robust scale of its residuals (1.4826
+// times their median) when `scale` is not null; false when the points do not determine it.
+// With `at` (tangent coordinates u, v), also the fit's height there into *height_at.
+template <int Degree>
+[[gnu::always_inline]] inline bool fit_height(const QuadricProjectionParams& params, std::size_t count, Scratch& s, double& height,
+                double* second = nullptr, double* scale = nullptr, const double* at = nullptr,
+                double* height_at = nullptr) {
+  constexpr int terms = kTerms<Degree>;
+  constexpr int stride = kStride<Degree>;
+  using Vec = Eigen::Matrix<double, terms, 1>;
+  using Mat = Eigen::Matrix<double, terms, terms>;
+  const double reach = reach_of(s, count);
+  if (!(reach > 0.0)) return false;
+  // Tangent coordinates in units of the fit's reach keep the normal equations well
+  // conditioned; the constant term, the height above p, is unchanged by that.
+  const double inv_reach = 1.0 / reach;
+  s.design.assign(count * stride, 0.0);
+  for (std::size_t j = 0; j < count; ++j) {
+    const Vec a = monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach);
+    std::copy(a.data(), a.data() + terms, s.design.data() + j * stride);
+  }
+  // h minus the fit at row j.
+  const auto residual = [&](std::size_t j, const Vec& c) {
+    const double* a = s.design.data() + j * stride;
+    double fitted = 0.0;
+    for (int t = 0; t < terms; ++t) fitted += a[t] * c[t];
+    return s.h[j] - fitted;
+  };
+  Vec c = Vec::Zero();
+  bool fitted = false;
+  alignas(32) double gram[terms * stride];
+  alignas(32) double rhs_terms[stride];
+  for (int pass = 0; pass <= params.iterations; ++pass) {
+    const std::size_t kept =
+        weighted_normal_equations<Degree>(s.design.data(), s.h.data(), s.weights.data(), count, gram, rhs_terms);
+    if (kept < static_cast<std::size_t>(terms)) break;
+    Mat normal_matrix;
+    for (int p = 0; p < terms; ++p)
+      for (int q = 0; q <= p; ++q) normal_matrix(p, q) = normal_matrix(q, p) = gram[p * stride + q];
+    const Vec rhs = Eigen::Map<const Vec>(rhs_terms);
+    const Eigen::LDLT<Mat> ldlt(normal_matrix);
+    const Vec d = ldlt.vectorD().cwiseAbs();
+    if (ldlt.info() != Eigen::Success || !(d.minCoeff() > 1e-9 * d.maxCoeff())) break;
+    c = ldlt.solve(rhs);
+    fitted = true;
+    if (pass == params.iterations) break;
+    for (std::size_t j = 0; j < count; ++j) s.residuals[j] = std::abs(residual(j, c));
+    const std::span<double> w(s.weights.data(), count), scratch(s.plane_scratch.data(), count);
+    detail::biweights(std::span<const double>(s.residuals.data(), count), params.inlier_bound, 1e-12 * reach, w,
+                      scratch);
+  }
+  if (!fitted || !std::isfinite(c[0])) return false;
+  height = c[0];
+  if (at != nullptr) *height_at = monomials<Degree>(at[0] * inv_reach, at[1] * inv_reach).dot(c);
+  if (scale != nullptr) {
+    for (std::size_t j = 0; j < count; ++j) s.plane_scratch[j] = std::abs(residual(j, c));
+    const auto mid = s.plane_scratch.begin() + static_cast<std::ptrdiff_t>(count / 2);
+    std::nth_element(s.plane_scratch.begin(), mid, s.plane_scratch.begin() + static_cast<std::ptrdiff_t>(count));
+    *scale = 1.4826 * *mid;
+  }
+  if (second != nullptr) {
+    const double per_reach2 = inv_reach * inv_reach;
+    second[0] = 2.0 * c[3] * per_reach2;
+    second[1] = c[4] * per_reach2;
+    second[2] = 2.0 * c[5] * per_reach2;
+  }
+  return true;
+}
+
+}  // namespace
+
+void QuadricProjectionParams::validate() const {
+  require(k >= 5, "quadric k must be >= 5, got " + std::to_string(k));
+  require(normal_neighbors >= 2, "quadric normal neighbours must be >= 2, got " + std::to_string(normal_neighbors));
+  require(normal_angle > 0.0 && normal_angle <= 90.0,
+          "quadric normal angle must be in (0, 90] degrees, got " + std::to_string(normal_angle));
+  require(degree == 2 || degree == 3, "quadric degree must be 2 or 3, got " + std::to_string(degree));
+  require(curvature_reach >= 0.0 && std::isfinite(curvature_reach),
+          "quadric curvature reach must be >= 0, got " + std::to_string(curvature_reach));
+  require(min_k >= 10, "quadric min k must be >= 10, got " + std::to_string(min_k));
+  require(passes >= 1 && passes <= 10, "quadric passes must be in 1..10, got " + std::to_string(passes));
+  require(iterations >= 0 && iterations <= 20, "quadric iterations must be in 0..20, got " + std::to_string(iterations));
+  require(inlier_bound > 0.0, "quadric inlier bound must be > 0, got " + std::to_string(inlier_bound));
+  require(placement_turn >= 0.0 && std::isfinite(placement_turn),
+          "quadric placement turn must be >= 0, got " + std::to_string(placement_turn));
+  frame.validate();
+}
+
+namespace {
+
+// p moved along the normal of its robust plane onto its fit; with an anchor, the anchor moved
+// along that normal onto the same fit instead (placed_on_quadric).
+[[gnu::always_inline]] inline Vec3 project_one(const Vec3& p, const Vec3* anchor, std::span<const Index> neighbors, std::span<const Vec3> points,
+                 const QuadricProjectionParams& params, Scratch& s) {
+  const std::size_t m = neighbors.size() + 1;  // p itself and its neighbours
+  if (m < 6) return p;
+  s.offsets.resize(neighbors.size());
+  for (std::size_t j = 0; j < neighbors.size(); ++j) s.offsets[j] = points[neighbors[j]] - p;
+  s.weights.assign(m, 0.0);
+  s.plane_scratch.resize(m);
+  const RobustPlane plane = fit_robust_plane(s.offsets, params.frame, s.weights, s.plane_scratch);
+  if (!plane.valid) return p;
+  const Vec3 n = plane.normal;
+  const Vec3 t1 = n.unitOrthogonal();
+  const Vec3 t2 = n.cross(t1);
+  s.u.resize(m);
+  s.v.resize(m);
+  s.h.resize(m);
+  s.u[0] = s.v[0] = s.h[0] = 0.0;
+  for (std::size_t j = 1; j < m; ++j) {
+    const Vec3& d = s.offsets[j - 1];
+    s.u[j] = d.dot(t1);
+    s.v[j] = d.dot(t2);
+    s.h[j] = d.dot(n);
+  }
+  s.residuals.resize(m);
+  // The anchor in p's frame: its tangent coordinates and its height over p's plane.
+  const Vec3 to_anchor = anchor != nullptr ? Vec3(*anchor - p) : Vec3::Zero();
+  const double at[2] = {to_anchor.dot(t1), to_anchor.dot(t2)};
+  std::size_t count = m;
+  if (params.curvature_reach > 0.0 && m > static_cast<std::size_t>(params.min_k) + 1) {
+    // A pilot quadric over the nearest min_k neighbours gives the largest principal
+    // curvature; the fit then takes the neighbours within curvature_reach / kappa.
+    const std::size_t pilot = static_cast<std::size_t>(params.min_k) + 1;
+    s.start_weights.assign(s.weights.begin(), s.weights.begin() + static_cast<std::ptrdiff_t>(pilot));
+    double pilot_height = 0.0, second[3];
+    if (fit_height<2>(params, pilot, s, pilot_height, second)) {
+      const double mean = 0.5 * (second[0] + second[2]);
+      const double diff = 0.5 * (second[0] - second[2]);
+      const double kappa = std::abs(mean) + std::sqrt(diff * diff + second[1] * second[1]);
+      // On a surface that turns by more than placement_turn between p and the anchor, the
+      // fit's height at the anchor strays from the surface more than at p (measured on the
+      // bunny and the torus): the anchor is not placed, p is projected as without one.
+      if (anchor != nullptr && kappa * std::hypot(at[0], at[1]) > params.placement_turn) anchor = nullptr;
+      const double radius = params.curvature_reach / std::max(kappa, 1e-300);
+      count = pilot;
+      while (count < m && s.u[count] * s.u[count] + s.v[count] * s.v[count] + s.h[count] * s.h[count] <= radius * radius)
+        ++count;
+    }
+    std::copy(s.start_weights.begin(), s.start_weights.end(), s.weights.begin());
+  }
+  // A fit that puts p farther off than the Tukey bound of its own residuals extrapolates (a
+  // neighbourhood to one side, a hole's border): the move is clamped to that bound.
+  double height = 0.0, scale = 0.0;
+  if (anchor == nullptr) {
+    const bool fitted = params.degree == 3 ? fit_height<3>(params, count, s, height, nullptr, &scale)
+                                           : fit_height<2>(params, count, s, height, nullptr, &scale);
+    if (!fitted) return p;
+    const double bound = params.inlier_bound * std::max(scale, 1e-12 * reach_of(s, count));
+    return p + std::clamp(height, -bound, bound) * n;
+  }
+  // The anchor in p's frame: it moves along n only, onto the fit's height at its own tangent
+  // coordinates. The fit at p is clamped as above; the height at the anchor is shifted by the
+  // same amount. An anchor outside the fit's reach (which the fit would extrapolate to) goes
+  // onto the plane at the clamped height of p instead.
+  const double anchor_height = to_anchor.dot(n);
+  double height_at = 0.0;
+  const bool fitted = params.degree == 3 ? fit_height<3>(params, count, s, height, nullptr, &scale, at, &height_at)
+                                         : fit_height<2>(params, count, s, height, nullptr, &scale, at, &height_at);
+  if (!fitted) return *anchor - anchor_height * n;
+  const double reach = reach_of(s, count);
+  const double bound = params.inlier_bound * std::max(scale, 1e-12 * reach);
+  const double clamped = std::clamp(height, -bound, bound);
+  // The fit keeps only neighbours whose normals lie within normal_angle of p's: its surface
+  // rises from p's plane by at most tan(normal_angle) per unit along it. A fit that rises
+  // faster at the anchor extrapolates (a neighbourhood to one side): the height is bounded by
+  // that slope.
+  const double offset = std::sqrt(at[0] * at[0] + at[1] * at[1]);
+  const double slope = std::tan(params.normal_angle * std::numbers::pi / 180.0);
+  const double target = std::clamp(offset <= reach ? height_at + (clamped - height) : clamped,
+                                   clamped - slope * offset, clamped + slope * offset);
+  return *anchor + (target - anchor_height) * n;
+}
+
+}  // namespace
+
+Vec3 project_to_quadric(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points,
+                        const QuadricProjectionParams& params) {
+  Scratch s;
+  return project_one(p, nullptr, neighbors, points, params, s);
+}
+
+Vec3 placed_on_quadric(const Vec3& anchor, const Vec3& p, std::span<const Index> neighbors,
+                       std::span<const Vec3> points, const QuadricProjectionParams& params) {
+  Scratch s;
+  return project_one(p, &anchor, neighbors, points, params, s);
+}
+
+std::vector<Vec3> neighbourhood_normals(std::span<const Vec3> points, const Neighborhoods& neighborhoods,
+                                        const QuadricProjectionParams& params) {
+  params.validate();
+  const std::size_t n = neighborhoods.size();
+  require(points.size() == n, "neighbourhood_normals: one neighbourhood row per point");
+  std::vector<Vec3> normals(n, Vec3::Zero());
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    std::vector<Vec3> offsets;
+    std::vector<double> weights, scratch;
+    for (std::size_t i = begin; i < end; ++i) {
+      const std::span<const Index> nb = neighborhoods.of(i);
+      const std::size_t m = std::min<std::size_t>(nb.size(), static_cast<std::size_t>(params.normal_neighbors));
+      offsets.resize(m);
+      for (std::size_t j = 0; j < m; ++j) offsets[j] = points[nb[j]] - points[i];
+      weights.assign(m + 1, 0.0);
+      scratch.resize(m + 1);
+      const RobustPlane plane = fit_robust_plane(offsets, params.frame, weights, scratch);
+      if (plane.valid) normals[i] = plane.normal;
+    }
+  }, 1024);
+  return normals;
+}
+
+void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals,
+                         const Neighborhoods& neighborhoods, const QuadricProjectionParams& params,
+                         std::span<Vec3> out) {
+  const std::size_t n = neighborhoods.size();
+  require(points.size() == n && normals.size() == n && out.size() == n,
+          "project_to_quadrics: one neighbourhood row, normal and output per point");
+  project_rows_to_quadrics(points, normals, neighborhoods, {}, params, out);
+}
+
+namespace {
+
+// The inputs of project_rows_to_quadrics (see there).
+struct RowsJob {
+  std::span<const Vec3> points, normals;
+  NeighborhoodsView rows;
+  std::span<const Index> queries;
+  const QuadricProjectionParams& params;
+  std::span<Vec3> out;
+  std::span<const Vec3> anchors;
+  double min_cos;
+};
+
+// Rows [begin, end) of project_rows_to_quadrics.
+[[gnu::always_inline]] inline void project_rows(const RowsJob& job, std::size_t begin, std::size_t end) {
+  Scratch s;
+  std::vector<Index> kept;
+  const std::size_t min_k = static_cast<std::size_t>(job.params.min_k);
+  for (std::size_t r = begin; r < end; ++r) {
+    const std::size_t i = job.queries.empty() ? r : job.queries[r];
+    const Vec3& ni = job.normals[i];
+    if (ni.isZero()) {  // no plane, no direction to move along
+      job.out[r] = job.points[i];
+      continue;
+    }
+    kept.clear();
+    // With an anchor: whether a neighbour among the nearest min_k lies on another face (its
+    // normal beyond the angle), i.e. the point is near a crease.
+    bool near_crease = false;
+    std::size_t seen = 0;
+    for (const Index j : job.rows.of(r)) {
+      const bool same_face = std::abs(ni.dot(job.normals[j])) >= job.min_cos;
+      if (same_face) kept.push_back(j);
+      if (!job.anchors.empty() && seen++ < min_k && !same_face) near_crease = true;
+    }
+    // Near a crease the anchor's position along the surface may lie past it, off both faces
+    // (the input's noise along the surface): there the point goes where the fit puts it, as
+    // in the free finish; elsewhere the anchor is placed along the normal.
+    const Vec3* anchor = job.anchors.empty() || near_crease ? nullptr : &job.anchors[r];
+    job.out[r] = project_one(job.points[i], anchor, kept, job.points, job.params, s);
+  }
+}
+
+// The same source compiled for the build's baseline and for AVX2 (wider vectors for the normal
+// equations' sums, each summed in the same order: the same bits). What it calls without
+// inlining (the robust plane, the LDLT solve) is the baseline's.
+void project_rows_plain(const RowsJob& job, std::size_t begin, std::size_t end) { project_rows(job, begin, end); }
+
+#if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
+#define POINTFAIR_HAS_AVX2_FINISH 1
+__attribute__((target("avx2"))) void project_rows_avx2(const RowsJob& job, std::size_t begin, std::size_t end) {
+  project_rows(job, begin, end);
+}
+#else
+#define POINTFAIR_HAS_AVX2_FINISH 0
+#endif
+
+}  // namespace
+
+void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, NeighborhoodsView rows,
+                              std::span<const Index> queries, const QuadricProjectionParams& params,
+                              std::span<Vec3> out, std::span<const Vec3> anchors) {
+  params.validate();
+  const std::size_t n = rows.size();
+  require(normals.size() == points.size() && out.size() == n && (queries.empty() || queries.size() == n) &&
+              (anchors.empty() || anchors.size() == n),
+          "project_rows_to_quadrics: a normal per point, a row, an output and an anchor per query");
+  const RowsJob job{points, normals, rows, queries, params, out, anchors,
+                    std::cos(params.normal_angle * std::numbers::pi / 180.0)};
+  const bool avx2 = default_step_kernel() == StepKernel::Avx2;
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+#if POINTFAIR_HAS_AVX2_FINISH
+    if (avx2) return project_rows_avx2(job, begin, end);
+#endif
+    project_rows_plain(job, begin, end);
+  }, 256);
+}
+
+Neighborhoods quadric_neighborhoods(std::span<const Vec3> points, const QuadricProjectionParams& params) {
+  NeighborParams wide;
+  wide.k = params.k;
+  wide.eps = std::numeric_limits<double>::infinity();
+  return build_neighborhoods(points, wide);
+}
+
+void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params,
+                          std::span<const Vec3> anchors, const FinishProgress& progress) {
+  params.validate();
+  const std::size_t n = points.size();
+  require(anchors.empty() || anchors.size() == n,
+          "finish_with_quadrics: one anchor per point (" + std::to_string(anchors.size()) + " vs " +
+              std::to_string(n) + ")");
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  // The k-long lists of every point at once would hold 4 k bytes a point (800 at k 200): the
+  // normals come from lists as long as they read (the first entries of the k-long rows, as
+  // the canonical order makes them), the fits from the k-long lists of one block of points at
+  // a time.
+  NeighborParams near;
+  near.k = std::min(params.k, params.normal_neighbors);
+  near.eps = inf;
+  std::vector<Vec3> out(n);
+  std::vector<Index> queries;
+  for (int pass = 0; pass < params.passes; ++pass) {
+    const std::vector<Vec3> normals = neighbourhood_normals(points, build_neighborhoods(points, near), params);
+    for (std::size_t first = 0; first < n; first += kQuadricBlock) {
+      const std::size_t count = std::min(kQuadricBlock, n - first);
+      queries.resize(count);
+      std::iota(queries.begin(), queries.end(), static_cast<Index>(first));
+      const Neighborhoods rows = build_neighborhoods(points, queries, params.k, inf);
+      const bool last = pass + 1 == params.passes;
+      // The block's rows in parts between progress calls (each part its own rows: the same
+      // bits as the whole block at once).
+      for (std::size_t part = 0; part < count; part += kQuadricProgressBlock) {
+        const std::size_t size = std::min(kQuadricProgressBlock, count - part);
+        const NeighborhoodsView part_rows = NeighborhoodsView(rows).rows(part, size);
+        project_rows_to_quadrics(
+            points, normals, part_rows, std::span<const Index>(queries).subspan(part, size), params,
+            std::span<Vec3>(out).subspan(first + part, size),
+            last && !anchors.empty() ? anchors.subspan(first + part, size) : std::span<const Vec3>{});
+        if (progress)
+          progress(static_cast<std::size_t>(pass) * n + first + part + size, n * static_cast<std::size_t>(params.passes));
+      }
+    }
+    points.swap(out);
+  }
+}
+
+}  // namespace pointfair

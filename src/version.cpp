@@ -1,5 +1,0 @@
-#include "pointfair/version.hpp"
-
-namespace pointfair {
-const char* version() { return POINTFAIR_VERSION; }
-}  // namespace pointfair
