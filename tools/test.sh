@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite, in stages (each prints its wall time):
 #   main       Release build (warnings as errors) of everything; every test with ctest
+#   package    cmake --install into a prefix; tests/package (project(x CXX), find_package)
+#              configured, built and run against it
 #   mpi        pointfair_mpi (OpenMPI + parallel HDF5) under mpirun: 1-4 ranks bit-identical
 #              to the single-process run, failing ranks, resuming on other rank counts; the
 #              import on 1-4 ranks; the Slurm scripts (shellcheck, a run against stand-ins)
@@ -40,6 +42,18 @@ stage main
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DPOINTFAIR_WERROR=ON "${config[@]}" >/dev/null
 cmake --build "$build" -j"$jobs"
 ctest --test-dir "$build" --output-on-failure -j"$jobs" --timeout 600
+
+stage package
+# The C++ package as the README uses it: installed into a prefix, then a C++-only project
+# (tests/package) configures with find_package(pointfair), builds and runs.
+package="$build-package"
+rm -rf "$package"
+cmake --install "$build" --prefix "$package/prefix" >/dev/null
+cmake -S tests/package -B "$package/consumer" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+  -DCMAKE_PREFIX_PATH="$PWD/$package/prefix" >/dev/null
+cmake --build "$package/consumer"
+mkdir -p "$package/run"
+"$package/consumer/consumer" "$package/run"
 
 if [ "${POINTFAIR_MPI_STAGE:-1}" != 0 ]; then
   stage mpi
