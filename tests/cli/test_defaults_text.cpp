@@ -1,4 +1,4 @@
-// One definition of the defaults: what `pointfair smooth --help` and the README's option
+// One definition of the defaults: what `pointfair smooth --help` and docs/command-line.md's option
 // table say each option defaults to is what SmoothParams{} (the library's defaults, which
 // the command runs) holds. A default changed in one place and not the others fails here.
 #include <gtest/gtest.h>
@@ -21,7 +21,7 @@ std::string text(double value) {
   return s.str();
 }
 
-// Option name -> its default as the help and the README write it, from SmoothParams{}.
+// Option name -> its default as the help and docs/command-line.md write it, from SmoothParams{}.
 std::map<std::string, std::string> library_defaults() {
   const SmoothParams p;
   const QuadricProjectionParams q = *p.finish;
@@ -112,10 +112,10 @@ TEST(DefaultsText, SmoothHelpStatesTheLibraryDefaults) {
       << help.at("quadric-finish");
 }
 
-// The README's option table: rows "| `--name ARG`, `--other ARG` | meaning | d1, d2 |".
-TEST(DefaultsText, ReadmeOptionTableStatesTheLibraryDefaults) {
-  std::ifstream readme(std::string(POINTFAIR_SOURCE_DIR) + "/README.md");
-  ASSERT_TRUE(readme) << "README.md not found";
+// The option table of docs/command-line.md: rows "| `--name ARG`, `--other ARG` | meaning | d1, d2 |".
+TEST(DefaultsText, CommandLineDocOptionTableStatesTheLibraryDefaults) {
+  std::ifstream readme(std::string(POINTFAIR_SOURCE_DIR) + "/docs/command-line.md");
+  ASSERT_TRUE(readme) << "docs/command-line.md not found";
   const std::map<std::string, std::string> defaults = library_defaults();
   std::size_t checked = 0;
   std::string line;
@@ -137,11 +137,11 @@ TEST(DefaultsText, ReadmeOptionTableStatesTheLibraryDefaults) {
     if (values.size() != names.size()) continue;  // a row whose defaults are not one per option
     for (std::size_t i = 0; i < names.size(); ++i) {
       if (!defaults.count(names[i])) continue;
-      EXPECT_EQ(values[i], defaults.at(names[i])) << "README row of --" << names[i] << ": " << line;
+      EXPECT_EQ(values[i], defaults.at(names[i])) << "docs/command-line.md row of --" << names[i] << ": " << line;
       ++checked;
     }
   }
-  EXPECT_GE(checked, 20u) << "the README's option table was not found or not read";
+  EXPECT_GE(checked, 20u) << "the option table of docs/command-line.md was not found or not read";
 }
 
 }  // namespace
