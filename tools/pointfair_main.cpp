@@ -28,6 +28,7 @@ constexpr const char* kUsage =
     "commands:\n"
     "  smooth IN OUT      run the (an)isotropic flow on a point file\n"
     "  curvature IN OUT   write normals, principal curvatures and directions, feature classes\n"
+    "  info FILE|DIR      describe a point file: format, count, bounds, CRS, attributes, noise\n"
     "  demo               the paper's octahedron experiment on a built-in input, into ./out\n"
     "  generate SHAPE OUT write a sampled test shape with noise (and its ground truth)\n"
     "  eval CLOUD         measure a cloud against ground truth (--truth)\n"
@@ -65,6 +66,7 @@ int main(int argc, char** argv) {
     if (command == "export") return cli::run_export(args);
     if (command == "eval") return cli::run_eval(args);
     if (command == "render") return cli::run_render(args);
+    if (command == "info") return cli::run_info(args);
     if (command == "version" || command == "--version") {
       std::printf("pointfair %s\n", version());
       return 0;

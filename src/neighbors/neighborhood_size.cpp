@@ -63,9 +63,9 @@ double cloud_noise_ratio(std::span<const double> ratios) {
   return *quartile;
 }
 
-int automatic_k(std::span<const Vec3> points) {
+NoiseEstimate estimate_noise(std::span<const Vec3> points) {
   const std::size_t n = points.size();
-  if (n < 8) return kAutoKMin;
+  if (n < 8) return {};
   require_finite(points, "automatic k");
   const std::size_t stride = noise_sample_stride(n);
   const std::size_t samples = (n + stride - 1) / stride;
@@ -75,7 +75,7 @@ int automatic_k(std::span<const Vec3> points) {
   // Each sample's nearest points as a k-d tree gives them, through the cell grid: no tree
   // over the whole cloud for a few thousand samples.
   const NearestPoints nearest = nearest_points(points, queries, want);
-  std::vector<double> ratios(samples);
+  std::vector<double> ratios(samples), nearest_d2(samples);
   parallel_for(samples, [&](std::size_t begin, std::size_t end) {
     std::vector<ProbePoint> probe;
     for (std::size_t s = begin; s < end; ++s) {
@@ -84,9 +84,24 @@ int automatic_k(std::span<const Vec3> points) {
       probe.clear();
       for (std::size_t j = 0; j < idx.size(); ++j) probe.push_back({d2[j], points[idx[j]]});
       ratios[s] = noise_ratio(probe, probe.size() == n);
+      // The nearest other point: the smallest distance of a point other than the sample.
+      double closest = std::numeric_limits<double>::infinity();
+      for (std::size_t j = 0; j < idx.size(); ++j)
+        if (idx[j] != queries[s]) closest = std::min(closest, d2[j]);
+      nearest_d2[s] = closest;
     }
   }, 64);
-  return k_for_noise_ratio(cloud_noise_ratio(ratios));
+  NoiseEstimate estimate;
+  estimate.ratio = cloud_noise_ratio(ratios);
+  const auto middle = nearest_d2.begin() + static_cast<std::ptrdiff_t>(samples / 2);
+  std::nth_element(nearest_d2.begin(), middle, nearest_d2.end());
+  estimate.spacing = std::isfinite(*middle) ? std::sqrt(*middle) : 0.0;
+  return estimate;
+}
+
+int automatic_k(std::span<const Vec3> points) {
+  if (points.size() < 8) return kAutoKMin;
+  return k_for_noise_ratio(estimate_noise(points).ratio);
 }
 
 }  // namespace pointfair

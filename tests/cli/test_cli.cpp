@@ -465,3 +465,95 @@ TEST_F(CliTest, ThreadsGiveIdenticalOutput) {
   ASSERT_EQ(run("smooth " + in.string() + " " + (dir_ / "b.ply").string() + " --steps 4 --threads 2 --quiet").exit_code, 0);
   EXPECT_EQ(slurp(dir_ / "a.ply"), slurp(dir_ / "b.ply"));
 }
+
+namespace {
+
+// The number after `key` in a JSON text ("key": N), or -1.
+double json_number_after(const std::string& json, const std::string& key) {
+  const std::size_t at = json.find("\"" + key + "\": ");
+  if (at == std::string::npos) return -1.0;
+  return std::stod(json.substr(at + key.size() + 4));
+}
+
+class CliInfoTest : public CliTest {
+ protected:
+  // A noisy sphere as LAS with the given coordinate system records; noise 3x that of
+  // write_cloud, so that the automatic k is above its minimum.
+  fs::path write_las(const std::string& name, std::vector<io::LasRecord> records) {
+    io::PointTable t;
+    t.positions = sample_sphere(3000, 1.0, 5).points;
+    add_noise(t.positions, 0.03, 6);
+    std::vector<double> classification(t.size());
+    for (std::size_t i = 0; i < t.size(); ++i) classification[i] = i % 3 == 0 ? 6.0 : 2.0;
+    t.set("classification", io::ScalarType::UInt8, classification);
+    t.las = io::LasMetadata{};
+    t.las->records = std::move(records);
+    const fs::path p = dir_ / name;
+    io::write_points(p, t);
+    return p;
+  }
+};
+
+TEST_F(CliInfoTest, DescribesALasFileWithItsCrsAndTheKTheDefaultsChoose) {
+  const std::string wkt =
+      "PROJCS[\"CH1903+ / LV95\",GEOGCS[\"CH1903+\",AUTHORITY[\"EPSG\",\"4150\"]],"
+      "PROJECTION[\"Hotine_Oblique_Mercator_Azimuth_Center\"],AUTHORITY[\"EPSG\",\"2056\"]]";
+  const fs::path in = write_las("scan.las", {{"LASF_Projection", 2112, "WKT", wkt + '\0', false}});
+  const RunResult text = run("info " + in.string());
+  ASSERT_EQ(text.exit_code, 0) << text.err;
+  EXPECT_NE(text.out.find("LAS 1.4"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("3,000 points"), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("EPSG:2056 \"CH1903+ / LV95\""), std::string::npos) << text.out;
+  EXPECT_NE(text.out.find("classification"), std::string::npos) << text.out;
+  const RunResult json = run("info " + in.string() + " --json");
+  ASSERT_EQ(json.exit_code, 0) << json.err;
+  EXPECT_EQ(json_number_after(json.out, "points"), 3000.0) << json.out;
+  EXPECT_NE(json.out.find("\"classification\": {\"type\": \"uchar\", \"min\": 2, \"max\": 6}"), std::string::npos)
+      << json.out;
+  // The k it predicts is the one smooth chooses.
+  const double k = json_number_after(json.out.substr(json.out.find("\"defaults\"")), "k");
+  const std::string smoothed = smooth_json(in, "--steps 1");
+  EXPECT_GT(k, 16.0) << json.out;
+  EXPECT_EQ(json_number_after(smoothed, "k"), k) << smoothed;
+}
+
+TEST_F(CliInfoTest, ReadsTheEpsgCodeOfGeoTiffKeys) {
+  // GeoKeyDirectory: version 1.1.0, 2 keys; GTModelType projected, ProjectedCSType 32633.
+  std::string keys;
+  for (const int w : {1, 1, 0, 2, 1024, 0, 1, 1, 3072, 0, 1, 32633}) {
+    keys += static_cast<char>(w & 0xff);
+    keys += static_cast<char>((w >> 8) & 0xff);
+  }
+  const fs::path in = write_las("utm.las", {{"LASF_Projection", 34735, "GeoKeys", keys, false}});
+  const RunResult r = run("info " + in.string() + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("\"crs\": \"EPSG:32633 (GeoTIFF keys)\""), std::string::npos) << r.out;
+  const fs::path plain = write_las("plain.las", {});
+  EXPECT_NE(run("info " + plain.string()).out.find("CRS        none"), std::string::npos);
+}
+
+TEST_F(CliInfoTest, AFolderIsDescribedFileByFileWithItsTotal) {
+  fs::create_directories(dir_ / "tiles");
+  io::write_points(dir_ / "tiles" / "b.ply", io::read_points(write_cloud("b.ply", 1000)));
+  io::write_points(dir_ / "tiles" / "a.xyz", io::read_points(write_cloud("a.ply", 500)));
+  std::ofstream(dir_ / "tiles" / "notes.md") << "not a point file";
+  const RunResult r = run("info " + (dir_ / "tiles").string() + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(json_number_after(r.out, "points"), 1500.0) << r.out;
+  EXPECT_LT(r.out.find("\"a.xyz\""), r.out.find("\"b.ply\"")) << r.out;
+  EXPECT_EQ(r.out.find("notes.md"), std::string::npos) << r.out;
+  // A budget too small for the estimate: the rest is still described.
+  const RunResult small = run("info " + (dir_ / "tiles" / "b.ply").string() + " --memory-budget 100K");
+  ASSERT_EQ(small.exit_code, 0) << small.err;
+  EXPECT_NE(small.out.find("not measured"), std::string::npos) << small.out;
+  // Nothing to describe: one line naming the path, exit code 3.
+  fs::create_directories(dir_ / "empty");
+  const RunResult empty = run("info " + (dir_ / "empty").string());
+  EXPECT_EQ(empty.exit_code, 3);
+  EXPECT_NE(empty.err.find("empty"), std::string::npos) << empty.err;
+  const RunResult missing = run("info " + (dir_ / "missing.las").string());
+  EXPECT_EQ(missing.exit_code, 3);
+  EXPECT_NE(missing.err.find("missing.las"), std::string::npos) << missing.err;
+}
+
+}  // namespace

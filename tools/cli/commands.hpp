@@ -20,5 +20,6 @@ bool wants_out_of_core(const Args& args);
 int run_smooth_out_of_core(const Args& args);
 int run_eval(const Args& args);
 int run_render(const Args& args);
+int run_info(const Args& args);
 
 }  // namespace pointfair::cli

@@ -5,6 +5,7 @@
 // neighbourhood is a ball inside the noisy layer, its plane and curvatures are noise, and the
 // flow needs neighbourhoods wide enough to see the surface through the layer. Measured with the
 // quality benchmark's models (README, Quality).
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -52,8 +53,17 @@ int k_for_noise_ratio(double g);
 /// lower quartile 0.16. On the quality benchmark's models the quartile is 0.92 of the median.
 double cloud_noise_ratio(std::span<const double> ratios);
 
-/// The automatic k of a cloud: k_for_noise_ratio of the cloud_noise_ratio of the samples,
-/// each measured on its kNoiseProbePoints nearest points (fewer in a smaller cloud).
+/// What the samples say about a cloud: its noise ratio (cloud_noise_ratio of the samples,
+/// each measured on its kNoiseProbePoints nearest points, fewer in a smaller cloud) and its
+/// sample spacing (the median over the samples of the distance to the nearest other point;
+/// 0 when every sample has a duplicate). NaN ratio and 0 spacing for fewer than 8 points.
+struct NoiseEstimate {
+  double ratio = std::numeric_limits<double>::quiet_NaN();
+  double spacing = 0.0;
+};
+NoiseEstimate estimate_noise(std::span<const Vec3> points);
+
+/// The automatic k of a cloud: k_for_noise_ratio of estimate_noise(points).ratio.
 /// Deterministic: the same for any thread count, and the tiled smoother measures the same
 /// samples with the same neighbours.
 int automatic_k(std::span<const Vec3> points);
