@@ -44,6 +44,26 @@ struct Plan {
   std::vector<LasRecord> vlrs, evlrs;
 };
 
+// Fields of LAS 1.2's formats 0-3 that hold whatever a 1.4 format would: an attribute of
+// any other name (return counts, classes and scan angles, whose 1.2 fields are narrower;
+// normals and other extra bytes, which 1.2 does not describe) needs LAS 1.4.
+constexpr std::string_view kLegacyFields[] = {
+    "intensity", "scan_direction_flag", "edge_of_flight_line", "synthetic", "key_point", "withheld",
+    "user_data", "point_source_id", "gps_time", "red", "green", "blue"};
+
+bool fits_legacy(const PointTable& table) {
+  return std::all_of(table.attributes.begin(), table.attributes.end(), [](const Attribute& a) {
+    return std::find(std::begin(kLegacyFields), std::end(kLegacyFields), a.name) != std::end(kLegacyFields);
+  });
+}
+
+// Formats 0-3 of LAS 1.2: 1 and 3 with GPS time, 2 and 3 with colours.
+int choose_legacy_format(const PointTable& table) {
+  const bool gps = table.find("gps_time") != nullptr;
+  const bool rgb = table.find("red") || table.find("green") || table.find("blue");
+  return (gps ? 1 : 0) + (rgb ? 2 : 0);
+}
+
 int choose_format(const PointTable& table) {
   auto any = [&](std::initializer_list<std::string_view> names) {
     return std::any_of(names.begin(), names.end(), [&](std::string_view n) { return table.find(n) != nullptr; });
@@ -57,8 +77,7 @@ int choose_format(const PointTable& table) {
   return rgb ? 7 : 6;
 }
 
-// Offset: the bounding box minimum rounded down; scale: the finest power of ten (>= 1e-9)
-// at which the extent above the offset fits in int32.
+// See las_quantization_for.
 PositionQuantization choose_quantization(const std::vector<Vec3>& positions) {
   if (positions.empty()) return PositionQuantization{};
   Vec3 lo = positions[0], hi = positions[0];
@@ -73,14 +92,18 @@ PositionQuantization choose_quantization(const std::vector<Vec3>& positions) {
 
 PositionQuantization las_quantization_for(const Vec3& lo, const Vec3& hi) {
   PositionQuantization q;
+  double largest = 0.0;
   for (int a = 0; a < 3; ++a) {
     q.offset[a] = std::floor(lo[a]);
-    const double extent = hi[a] - q.offset[a];
-    int exponent = -9;
-    // 0.99: leaves room for the rounding of (x - offset) / scale.
-    while (extent / std::pow(10.0, exponent) > 0.99 * kInt32Max) ++exponent;
-    q.scale[a] = std::pow(10.0, exponent);
+    largest = std::max(largest, hi[a] - q.offset[a]);
   }
+  // A million steps or more across the largest extent, at most 1e-3 (a millimetre for
+  // metres), at least 1e-9; coarser only where the extent would not fit in int32.
+  int exponent = largest > 0.0 ? static_cast<int>(std::floor(std::log10(largest / 1e6))) : -3;
+  exponent = std::clamp(exponent, -9, -3);
+  // 0.99: leaves room for the rounding of (x - offset) / scale.
+  while (largest / std::pow(10.0, exponent) > 0.99 * kInt32Max) ++exponent;
+  q.scale = Vec3::Constant(std::pow(10.0, exponent));
   return q;
 }
 
@@ -152,9 +175,15 @@ Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuan
     h.project_guid = source->project_guid;
     h.system_identifier = source->system_identifier;
   } else {
-    h.version_minor = 4;
-    h.point_format = choose_format(table);
-    h.global_encoding = 16;  // WKT coordinate system bit, which 1.4 requires for formats 6-10
+    if (fits_legacy(table)) {
+      // LAS 1.2, which every reader takes (some web readers refuse 1.4).
+      h.version_minor = 2;
+      h.point_format = choose_legacy_format(table);
+    } else {
+      h.version_minor = 4;
+      h.point_format = choose_format(table);
+      h.global_encoding = 16;  // WKT coordinate system bit, which 1.4 requires for formats 6-10
+    }
     h.system_identifier = "OTHER";
   }
   h.generating_software = "pointfair";

@@ -465,8 +465,31 @@ TEST(Las, ChoosesTheFormatFromTheAttributes) {
   TempDir dir;
   PointTable t;
   t.positions = {Vec3(0, 0, 0), Vec3(1, 2, 3)};
+  // Attributes that LAS 1.2 holds: 1.2, formats 0-3 (every reader takes them).
   write_las(dir / "plain.las", t);
-  EXPECT_EQ(read_las(dir / "plain.las").las->point_format, 6);
+  EXPECT_EQ(read_las(dir / "plain.las").las->version_minor, 2);
+  EXPECT_EQ(read_las(dir / "plain.las").las->point_format, 0);
+  t.set("intensity", ScalarType::UInt16, {7, 8});
+  t.set("red", ScalarType::UInt8, {1, 2});
+  write_las(dir / "rgb.las", t);
+  EXPECT_EQ(read_las(dir / "rgb.las").las->version_minor, 2);
+  EXPECT_EQ(read_las(dir / "rgb.las").las->point_format, 2);
+  EXPECT_EQ(read_las(dir / "rgb.las").find("intensity")->values, (std::vector<double>{7, 8}));
+  t.set("gps_time", ScalarType::Float64, {1.5, 2.5});
+  write_las(dir / "rgb_gps.las", t);
+  EXPECT_EQ(read_las(dir / "rgb_gps.las").las->point_format, 3);
+  // Anything else (a class, normals as extra bytes): LAS 1.4, formats 6-10.
+  t.attributes.clear();
+  t.set("classification", ScalarType::UInt8, {2, 40});
+  write_las(dir / "classes.las", t);
+  EXPECT_EQ(read_las(dir / "classes.las").las->version_minor, 4);
+  EXPECT_EQ(read_las(dir / "classes.las").las->point_format, 6);
+  EXPECT_EQ(read_las(dir / "classes.las").find("classification")->values, (std::vector<double>{2, 40}));
+  t.attributes.clear();
+  t.set("nx", ScalarType::Float32, {0, 1});
+  write_las(dir / "normals.las", t);
+  EXPECT_EQ(read_las(dir / "normals.las").las->version_minor, 4);
+  t.attributes.clear();
   t.set("nir", ScalarType::UInt16, {1, 2});
   write_las(dir / "nir.las", t);
   EXPECT_EQ(read_las(dir / "nir.las").las->point_format, 8);
@@ -475,11 +498,24 @@ TEST(Las, ChoosesTheFormatFromTheAttributes) {
   EXPECT_EQ(read_las(dir / "wave.las").las->point_format, 10);
 }
 
+TEST(Las, ScaleFromTheExtentAtMostAMillimetre) {
+  // A million steps or more across the largest extent, at most 1e-3, one scale for all axes.
+  const auto scale = [](double extent) {
+    return las_quantization_for(Vec3(10.25, -3.5, 0), Vec3(10.25 + extent, -3.5 + extent / 2, 1)).scale;
+  };
+  EXPECT_EQ(scale(3.0), Vec3::Constant(1e-6));      // a unit object
+  EXPECT_EQ(scale(150.0), Vec3::Constant(1e-4));    // a building
+  EXPECT_EQ(scale(2000.0), Vec3::Constant(1e-3));   // an airborne tile
+  EXPECT_EQ(scale(5e6), Vec3::Constant(1e-2));      // beyond int32 at 1e-3
+  EXPECT_EQ(las_quantization_for(Vec3(10.25, -3.5, 0), Vec3(11, 0, 1)).offset, Vec3(10, -4, 0));
+}
+
 TEST(Las, ConvertsTheScanAngleRankToTheScanAngle) {
   TempDir dir;
   PointTable t;
   t.positions = {Vec3(0, 0, 0), Vec3(1, 1, 1)};
   t.set("scan_angle_rank", ScalarType::Int8, {-90, 30});
+  t.set("classification", ScalarType::UInt8, {1, 2});  // LAS 1.4
   write_las(dir / "a.las", t);  // format 6: units of 0.006 degrees
   const PointTable back = read_las(dir / "a.las");
   EXPECT_EQ(back.find("scan_angle_rank"), nullptr);

@@ -42,15 +42,16 @@ std::unique_ptr<PointChunkReader> open_las_reader(const std::filesystem::path& f
 /// Writes `table` atomically (see write_file_atomically) as a LAS file.
 ///
 /// Version and point format: those of table.las when present (a table read from LAS);
-/// otherwise LAS 1.4 with the smallest of formats 6-10 that holds the table's standard
-/// attributes: 6, 7 with red/green/blue, 8 with nir, 9 with wave packet fields, 10 with wave
-/// packets and colour (1.4 formats are the only ones with 16 returns, the overlap flag and
-/// 256 classes, and every current reader handles them).
+/// otherwise LAS 1.2, which every reader takes, when every attribute is one of intensity,
+/// the scan direction and edge flags, synthetic, key_point, withheld, user_data,
+/// point_source_id, gps_time, red, green, blue (format 0; 1 with gps_time, 2 with colours,
+/// 3 with both); else LAS 1.4 with the smallest of formats 6-10 that holds the table's
+/// standard attributes: 6, 7 with red/green/blue, 8 with nir, 9 with wave packet fields, 10
+/// with wave packets and colour (1.4 formats are the only ones with 16 returns, the overlap
+/// flag, 256 classes and described extra bytes).
 ///
-/// Positions: quantized with table.quantization when present; otherwise offset = the
-/// bounding box minimum rounded down to a whole unit, and scale = the finest power of ten,
-/// down to 1e-9, at which the extent above the offset fits in int32 (1e-4 or finer for
-/// extents up to 214,748 units: sub-0.1 mm for metres).
+/// Positions: quantized with table.quantization when present; otherwise
+/// las_quantization_for the bounding box.
 ///
 /// Attributes named like a standard field of the format fill that field (converted to the
 /// field's type: rounded, and saturated to its range or bit width; uint8 red, green, blue and
@@ -66,7 +67,11 @@ std::unique_ptr<PointChunkReader> open_las_reader(const std::filesystem::path& f
 void write_las(const std::filesystem::path& file, const PointTable& table);
 
 /// The integer grid write_las chooses for positions within [lo, hi] when the table has no
-/// quantization (see write_las). A streaming writer given it in its schema writes the same
+/// quantization: offset = lo rounded down to a whole unit on each axis; one scale for all
+/// three, the largest power of ten that puts a million steps or more across the largest
+/// extent above the offset, at most 1e-3 (a millimetre for metres: a 1 km tile gets 1e-3, a
+/// 100 m one 1e-4, a unit object 1e-6) and at least 1e-9, coarser only where the extent would
+/// not fit in int32. A streaming writer given it in its schema writes the same
 /// bytes as write_las without holding the points.
 PositionQuantization las_quantization_for(const Vec3& lo, const Vec3& hi);
 
