@@ -18,14 +18,25 @@ double Run::first_halo(std::size_t t) const {
 }
 
 double Run::knn_first_halo(std::size_t t, int neighbors) const {
-  // Unbounded eps: start from the spacing a surface patch of the tile's size would have,
-  // and grow until every (k+1)-th neighbour lies inside the halo.
+  // Unbounded eps: start from the radius of a disc holding k+1 points of a surface patch as
+  // dense as the tile (its side over the square root of its points, times sqrt((k+1)/pi)),
+  // with a margin of 1.5, and grow until every (k+1)-th neighbour lies inside the halo. (Twice
+  // the patch's spacing times sqrt(k+1), as before, gathered a halo three times as wide:
+  // for the finish's 200 neighbours, many times the tile.) A tile of few points in a wide box
+  // (a sliver of a surface that crosses it) would still start with a halo of many times its
+  // points: it starts no wider than four times the halo of the whole cloud taken as one such
+  // patch.
   const Box& b = tiles_.bounds[t];
+  const Box& g = global_bounds_;
   const double side = std::max({b[3] - b[0], b[4] - b[1], b[5] - b[2], 0.0});
-  const double diag = std::hypot(global_bounds_[3] - global_bounds_[0], global_bounds_[4] - global_bounds_[1],
-                                 global_bounds_[5] - global_bounds_[2]);
+  const double cloud_side = std::max({g[3] - g[0], g[4] - g[1], g[5] - g[2], 0.0});
+  const double diag = std::hypot(g[3] - g[0], g[4] - g[1], g[5] - g[2]);
   const double rows = static_cast<double>(std::max<std::uint64_t>(1, tiles_.rows(t)));
-  return std::max(2.0 * side * std::sqrt((neighbors + 1.0) / rows), 1e-12 * (1.0 + diag));
+  const double points = static_cast<double>(std::max<std::uint64_t>(1, n_));
+  const double disc = 1.5 * std::sqrt((neighbors + 1.0) / std::numbers::pi);
+  const double tile_guess = disc * side / std::sqrt(rows);
+  const double cloud_guess = disc * cloud_side / std::sqrt(points);
+  return std::max(std::min(tile_guess, 4.0 * cloud_guess), 1e-12 * (1.0 + diag));
 }
 
 LocalSet Run::gather_local(std::size_t t, double halo) const {
