@@ -10,6 +10,7 @@
 #include "out_of_core.hpp"
 #include "run_support.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/neighborhood_size.hpp"
@@ -64,7 +65,7 @@ int run_import(const Args& args) {
   io::require_distinct(input, output);
 
   const auto t0 = std::chrono::steady_clock::now();
-  options.tiling.max_tile_points = tile_points > 0 ? tile_points : tile_points_for_budget(budget, kAutoKMax);
+  options.tiling.max_tile_points = tile_points > 0 ? tile_points : tiles::tile_points_for_budget(budget, kAutoKMax);
   options.tiling.cell_size = cell_size;
   options.source_name = std::filesystem::path(input).filename().string();
   options.source_size = input_file_size(input);

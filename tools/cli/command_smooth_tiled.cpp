@@ -18,6 +18,7 @@
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/parallel.hpp"
 #include "pointfair/params_error.hpp"
+#include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/import.hpp"
@@ -206,7 +207,7 @@ int run_smooth_out_of_core(const Args& args) {
       const int flow_k = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
       const int k_bound = params.finish ? std::max(flow_k, params.finish->k) : flow_k;
       tiles::StreamImportOptions import;
-      import.container.tiling.max_tile_points = tile_points_for_budget(ooc.memory_budget, k_bound);
+      import.container.tiling.max_tile_points = tiles::tile_points_for_budget(ooc.memory_budget, k_bound);
       import.container.source_name = fs::path(input).filename().string();
       import.container.source_size = input_file_size(input);
       import.container.source_digest = digest;

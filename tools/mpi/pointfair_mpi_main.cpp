@@ -33,6 +33,7 @@
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/parallel.hpp"
+#include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/params_error.hpp"
 #include "pointfair/tiles/import.hpp"
@@ -164,7 +165,7 @@ int run_import(const std::vector<std::string>& args, tiles::Ranks& ranks) {
     throw cli::UsageError("pointfair_mpi import: OUT must be a .h5 file, got '" + output + "'");
   io::require_distinct(input, output);
   const auto t0 = std::chrono::steady_clock::now();
-  stream.container.tiling.max_tile_points = tile_points > 0 ? tile_points : cli::tile_points_for_budget(budget, kAutoKMax);
+  stream.container.tiling.max_tile_points = tile_points > 0 ? tile_points : tiles::tile_points_for_budget(budget, kAutoKMax);
   stream.container.source_name = std::filesystem::path(input).filename().string();
   std::error_code ec;
   stream.container.source_size = std::filesystem::file_size(input, ec);
