@@ -83,4 +83,29 @@ TEST_F(BudgetTest, ALargerBudgetNeverNeedsMore) {
   EXPECT_GT(first_taken, 0u);
 }
 
+// A lambda sample larger than the room kept for it (lambda_sample_room; 50,000 points, about
+// 2.2 MiB gathered) is not gathered: each lambda reads the sample from the run file in
+// pieces, to the in-core bits, measured every step or once with rebuilds, from positions
+// streamed a tile at a time.
+TEST_F(BudgetTest, ASampleThatIsNotGatheredGivesTheSameBits) {
+  const io::PointTable cloud = test::noisy_cube(50000, 37);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 4000}));
+  for (const bool every_step : {true, false}) {
+    SCOPED_TRACE(every_step ? "lambda every step" : "lambda once, rebuilt");
+    SmoothParams params = test::few_steps(3);
+    params.neighbors.k = 16;
+    params.lambda_every_step = every_step;
+    if (!every_step) params.rebuild_interval = 2;
+    const test::InCore ref = test::run_in_core(cloud, params);
+    OutOfCoreOptions options;
+    options.memory_budget = 6 * kMiB;
+    const OutOfCoreReport r = smooth_out_of_core(path("in.h5"), path("run.h5"), params, options);
+    EXPECT_FALSE(r.positions_held) << "not the case this test is for";
+    EXPECT_LE(r.peak_accounted_bytes, options.memory_budget);
+    EXPECT_EQ(r.lambda, ref.report.lambda);
+    test::expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+  }
+}
+
 }  // namespace
