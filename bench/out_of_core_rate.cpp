@@ -10,6 +10,7 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/io/point_file.hpp"
+#include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
@@ -18,21 +19,13 @@ namespace pointfair::bench {
 
 namespace fs = std::filesystem;
 
-std::uint64_t tile_points_for_budget(std::uint64_t budget, int k) {
-  // The rule of the CLI (tools/cli/out_of_core.cpp): the budget less a reserve for the lambda
-  // sample and tables, over twice the bytes a tile point takes while its lists are built.
-  const std::uint64_t reserve = std::uint64_t{16} << 20;
-  const std::uint64_t usable = budget > 2 * reserve ? budget - reserve : budget / 2;
-  return std::max<std::uint64_t>(64, usable / (2 * (200 + 8 * static_cast<std::uint64_t>(k))));
-}
-
 OutOfCoreBench::OutOfCoreBench(const std::vector<Vec3>& cloud, int k, const OutOfCoreRateOptions& options)
     : options_(options) {
   std::string pattern = (fs::temp_directory_path() / "pointfair-throughput-XXXXXX").string();
   if (mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("cannot create a temporary directory in " + fs::temp_directory_path().string());
   dir_ = pattern;
   container_ = dir_ / "cloud.h5";
-  tile_points_ = options.tile_points > 0 ? options.tile_points : tile_points_for_budget(options.memory_budget, k);
+  tile_points_ = options.tile_points > 0 ? options.tile_points : tiles::tile_points_for_budget(options.memory_budget, k);
   // The cloud as a binary PLY, imported as `pointfair import` does (streamed, within the budget).
   io::PointTable table;
   table.positions = cloud;

@@ -88,9 +88,6 @@ std::string out_of_core_json(const OutOfCoreSection& section, const std::string&
 /// (its neighbour lists alone take (k + 1) 4 bytes a point): 64 bytes a point, at least 16 MiB.
 std::uint64_t streamed_budget(std::uint64_t points);
 
-/// Most points per tile `pointfair import --memory-budget` picks for `budget` and k.
-std::uint64_t tile_points_for_budget(std::uint64_t budget, int k);
-
 /// A generated cloud imported once into a container in a fresh temporary directory, removed
 /// with the object.
 class OutOfCoreBench {

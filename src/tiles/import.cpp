@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -14,6 +15,7 @@
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_file.hpp"
+#include "pointfair/tiles/container_reader.hpp"
 #include "temporary_file.hpp"
 
 namespace pointfair::tiles {
@@ -350,8 +352,21 @@ class Import {
   std::vector<std::uint32_t> run_start_;  // per tile, during a flush
 };
 
+namespace {
+
+// A point file, or a container (its input positions and attributes in its points' original
+// order): a container imported again gets the tiles of another budget.
+std::unique_ptr<io::PointChunkReader> open_input(const std::filesystem::path& input, const io::ReadOptions& read = {}) {
+  std::string e = input.extension().string();
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (e == ".h5" || e == ".hdf5") return std::make_unique<ContainerChunkReader>(input, ContainerReaderOptions{.result_positions = false});
+  return io::open_point_reader(input, read);
+}
+
+}  // namespace
+
 std::unique_ptr<io::PointChunkReader> Import::open_share(const io::ReadOptions& read) const {
-  auto reader = io::open_point_reader(input_, read);
+  auto reader = open_input(input_, read);
   if (first_ > 0 && reader->skip(first_) != first_) changed(input_);
   return reader;
 }
@@ -369,7 +384,7 @@ void Import::count_and_bounds() {
   // Without a declared count (text), rank 0 reads everything and the others nothing.
   std::optional<std::uint64_t> declared;
   {
-    const auto probe = io::open_point_reader(input_);  // warnings come from the share's reader
+    const auto probe = open_input(input_);  // warnings come from the share's reader
     schema_ = probe->schema();
     declared = probe->count();
   }

@@ -18,14 +18,25 @@ double Run::first_halo(std::size_t t) const {
 }
 
 double Run::knn_first_halo(std::size_t t, int neighbors) const {
-  // Unbounded eps: start from the spacing a surface patch of the tile's size would have,
-  // and grow until every (k+1)-th neighbour lies inside the halo.
+  // Unbounded eps: start from the radius of a disc holding k+1 points of a surface patch as
+  // dense as the tile (its side over the square root of its points, times sqrt((k+1)/pi)),
+  // with a margin of 1.5, and grow until every (k+1)-th neighbour lies inside the halo. (Twice
+  // the patch's spacing times sqrt(k+1), as before, gathered a halo three times as wide:
+  // for the finish's 200 neighbours, many times the tile.) A tile of few points in a wide box
+  // (a sliver of a surface that crosses it) would still start with a halo of many times its
+  // points: it starts no wider than four times the halo of the whole cloud taken as one such
+  // patch.
   const Box& b = tiles_.bounds[t];
+  const Box& g = global_bounds_;
   const double side = std::max({b[3] - b[0], b[4] - b[1], b[5] - b[2], 0.0});
-  const double diag = std::hypot(global_bounds_[3] - global_bounds_[0], global_bounds_[4] - global_bounds_[1],
-                                 global_bounds_[5] - global_bounds_[2]);
+  const double cloud_side = std::max({g[3] - g[0], g[4] - g[1], g[5] - g[2], 0.0});
+  const double diag = std::hypot(g[3] - g[0], g[4] - g[1], g[5] - g[2]);
   const double rows = static_cast<double>(std::max<std::uint64_t>(1, tiles_.rows(t)));
-  return std::max(2.0 * side * std::sqrt((neighbors + 1.0) / rows), 1e-12 * (1.0 + diag));
+  const double points = static_cast<double>(std::max<std::uint64_t>(1, n_));
+  const double disc = 1.5 * std::sqrt((neighbors + 1.0) / std::numbers::pi);
+  const double tile_guess = disc * side / std::sqrt(rows);
+  const double cloud_guess = disc * cloud_side / std::sqrt(points);
+  return std::max(std::min(tile_guess, 4.0 * cloud_guess), 1e-12 * (1.0 + diag));
 }
 
 LocalSet Run::gather_local(std::size_t t, double halo) const {
@@ -374,9 +385,25 @@ void Run::prepare_lambda_sample() {
       if (index[r] % stride == 0) sample_rows_[index[r] / stride] = first + r;
   }
   ranks_->max(sample_rows_);
+  // Gathered (its lists and the positions of every row they name, about 14 MiB for 8192
+  // samples of 48 neighbours) while that takes at most the room kept for it, or 2 MiB (a
+  // small cloud's sample, gathered as it always was); else each lambda reads them in pieces,
+  // and a small budget keeps its room for the tiles.
+  const std::size_t kk = static_cast<std::size_t>(k());
+  const std::uint64_t gathered_bound =
+      std::min<std::uint64_t>(samples * (kk + 1), n_) * (sizeof(std::uint64_t) + sizeof(Vec3)) +
+      samples * (kk * sizeof(Index) + sizeof(std::uint16_t) + sizeof(Index));
+  sample_gathered_ = gathered_bound <= std::max(lambda_sample_room(options_.memory_budget), std::uint64_t{2} << 20);
+  if (!sample_gathered_) {
+    free_vector(sample_local_);
+    free_vector(sample_neighbors_);
+    free_vector(sample_counts_);
+    free_vector(gather_rows_);
+    free_vector(gather_positions_);
+    return;
+  }
   std::vector<std::uint64_t> sorted = sample_rows_;
   std::sort(sorted.begin(), sorted.end());
-  const std::size_t kk = static_cast<std::size_t>(k());
   std::vector<std::uint32_t> lists(sorted.size() * kk);
   std::vector<std::uint16_t> counts(sorted.size());
   file().dataset(layout::neighbor_rows).read_selected(sorted, lists.data());
@@ -402,14 +429,17 @@ void Run::prepare_lambda_sample() {
 }
 
 void Run::load_sample_positions(const h5::Dataset& positions) {
+  sample_source_ = positions.path();
+  if (!sample_gathered_) return;
   gather_positions_.resize(gather_rows_.size());
   if (!gather_rows_.empty()) positions.read_selected(gather_rows_, gather_positions_.data()->data());
 }
 
-double Run::sample_lambda() const {
+double Run::sample_lambda() {
   // auto_lambda (euler_step.cpp) on the gathered sample: the same points and the same
   // per-point and global medians; tests check that both agree to the bit.
   if (n_ == 0) return 1.0;
+  if (!sample_gathered_) return sample_lambda_in_pieces();
   const std::size_t samples = sample_rows_.size();
   const std::size_t kk = static_cast<std::size_t>(k());
   const std::span<const Vec3> points = gather_positions_;
@@ -421,6 +451,61 @@ double Run::sample_lambda() const {
       medians[s] = median_abs_curvature(points[i], nb, points);
     }
   }, 256);
+  return lambda_from_medians(std::move(medians), params_.flow.lambda_auto_factor);
+}
+
+double Run::sample_lambda_in_pieces() {
+  // The same medians as sample_lambda's, of this rank's samples in row order, kPiece at a
+  // time: the piece's lists, then the positions of the rows they name, read from the run
+  // file (sample_source_, in row order). A piece of consecutive rows lies in a few
+  // neighbouring tiles, so that its reads are short runs of nearby rows.
+  constexpr std::size_t kPiece = 256;
+  const std::size_t samples = sample_rows_.size(), kk = static_cast<std::size_t>(k());
+  std::vector<std::pair<std::uint64_t, std::size_t>> mine;  // (row, sample)
+  for (std::size_t s = 0; s < samples; ++s)
+    if (sample_rows_[s] >= my_first_row() && sample_rows_[s] < my_end_row()) mine.emplace_back(sample_rows_[s], s);
+  std::sort(mine.begin(), mine.end());
+  const h5::Dataset positions = file().dataset(sample_source_);
+  const h5::Dataset list_rows = file().dataset(layout::neighbor_rows);
+  const h5::Dataset list_counts = file().dataset(layout::neighbor_counts);
+  // +0.0 where another rank measures (Ranks::merge).
+  std::vector<double> medians(samples, 0.0);
+  std::vector<std::uint64_t> rows, gather;
+  std::vector<std::uint32_t> lists;
+  std::vector<std::uint16_t> counts;
+  std::vector<Vec3> points;
+  std::vector<Index> local;
+  for (std::size_t first = 0; first < mine.size(); first += kPiece) {
+    const std::size_t count = std::min(kPiece, mine.size() - first);
+    rows.resize(count);
+    for (std::size_t i = 0; i < count; ++i) rows[i] = mine[first + i].first;
+    lists.resize(count * kk);
+    counts.resize(count);
+    list_rows.read_selected(rows, lists.data());
+    list_counts.read_selected(rows, counts.data());
+    gather = rows;
+    for (std::size_t i = 0; i < count; ++i)
+      for (std::size_t j = 0; j < counts[i]; ++j) gather.push_back(lists[i * kk + j]);
+    std::sort(gather.begin(), gather.end());
+    gather.erase(std::unique(gather.begin(), gather.end()), gather.end());
+    points.resize(gather.size());
+    positions.read_selected(gather, points.data()->data());
+    const auto local_of = [&](std::uint64_t row) {
+      return static_cast<Index>(std::lower_bound(gather.begin(), gather.end(), row) - gather.begin());
+    };
+    local.resize(count * kk);
+    for (std::size_t i = 0; i < count; ++i)
+      for (std::size_t j = 0; j < counts[i]; ++j) local[i * kk + j] = local_of(lists[i * kk + j]);
+    account(bytes(rows) + bytes(gather) + bytes(lists) + bytes(counts) + bytes(points) + bytes(local) + bytes(mine) +
+            bytes(medians));
+    parallel_for(count, [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) {
+        const std::span<const Index> nb(local.data() + i * kk, counts[i]);
+        medians[mine[first + i].second] = median_abs_curvature(points[local_of(rows[i])], nb, points);
+      }
+    }, 16);
+  }
+  if (ranks_->size() > 1) ranks_->merge(medians);
   return lambda_from_medians(std::move(medians), params_.flow.lambda_auto_factor);
 }
 

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <numeric>
 #include <optional>
 #include <sstream>
@@ -27,6 +28,7 @@
 #include "pointfair/flow/shrink_compensation.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/file_lock.hpp"
+#include "pointfair/tiles/budget.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/neighbors/nearest_points.hpp"
 #include "pointfair/neighbors/neighborhood_size.hpp"
@@ -143,8 +145,15 @@ class Run {
   bool covers_all(std::size_t t, double halo) const;
   LocalSet gather_local(std::size_t t, double halo) const;
   void prepare_lambda_sample();
-  double sample_lambda() const;
+  // The automatic lambda of the positions last named by load_sample_positions (and, when the
+  // sample is gathered, brought up to date by the steps' writes).
+  double sample_lambda();
+  // The sample's positions from `positions` (row order): read when the sample is gathered,
+  // else only the dataset named, which sample_lambda then reads in pieces.
   void load_sample_positions(const h5::Dataset& positions);
+  // sample_lambda of a sample that is not gathered: the medians of this rank's samples, a few
+  // hundred at a time, each piece's lists and positions read from the run file.
+  double sample_lambda_in_pieces();
   // The lambda sample's positions among a written tile's rows begin .. begin + rows - 1:
   // position_of(r) is the position of row begin + r.
   template <class PositionOf>
@@ -301,6 +310,11 @@ class Run {
   std::vector<std::uint16_t> sample_counts_;
   std::vector<std::uint64_t> gather_rows_;
   std::vector<Vec3> gather_positions_;
+  // Whether the sample is gathered as above (while it takes at most the room kept for it,
+  // lambda_sample_room); else only sample_rows_ is kept, and each lambda reads the
+  // sample's lists and positions from sample_source_ in pieces (sample_lambda_in_pieces).
+  bool sample_gathered_ = true;
+  std::string sample_source_;
 
   // Neighbour lists of every tile, kept while they fit in part of the budget.
   // Shared with the slots of the pipeline, so that dropping the cache never frees lists a tile

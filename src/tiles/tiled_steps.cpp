@@ -22,6 +22,9 @@ void Run::hold_positions() {
   // copies of every tile with its halo (three when compensated) next to what the run keeps
   // and the tiles in flight.
   bool able = !temporal_blocks() && caching_;
+  // A lambda of every step from a sample that is not gathered is read from the run file,
+  // which held steps write late or in list order.
+  able = able && (sample_gathered_ || !(auto_lambda_on() && params_.lambda_every_step));
   std::vector<std::uint64_t> base(tiles_.size() + 1, 0);
   std::uint64_t total = 0, halo_total = 0;
   for (std::size_t t = first_tile_; t < end_tile_ && able; ++t) {
@@ -382,8 +385,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
     // the halos (the run file's rows of a halo are then not in row order) and every tile's
     // lists have an order; the slots then hold no copy of a tile in row order.
     HaloScratch* const halos = !blocks() && !holding_ ? streamed_halos() : nullptr;
+    // Not where the next step's lambda is read from the run file in row order (a sample that
+    // is not gathered).
     const bool streamed_list_order = halos != nullptr && streamed_lists_ordered() && step + 1 < params_.steps &&
-                                     !rebuild_due(step + 1);
+                                     !rebuild_due(step + 1) && (sample_gathered_ || !gather_sample);
     std::vector<std::size_t> block_degenerate(static_cast<std::size_t>(h), 0);
     std::size_t degenerate = 0;
     PipelineStages stages;
@@ -630,6 +635,9 @@ bool Run::run_steps(OutOfCoreReport& report) {
         for (std::size_t i = b; i < e; ++i) gather_positions_[i] = now[held_sample_[i]];
       }, 4096);
     }
+    // A sample that is not gathered: the next lambda reads this step's positions, written in
+    // row order.
+    if (gather_sample && !sample_gathered_) sample_source_ = target_name;
     if (halos != nullptr) {
       scratch_holds_[static_cast<std::size_t>(written_halos)] = positions_buffer(written_halos);
       report.halo_scratch = true;

@@ -3,6 +3,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -208,44 +209,59 @@ TEST_F(CliTest, OutOfCoreSmoothTakesCompensationAndPlateauStop) {
 }
 
 // Too small a --memory-budget for the run: exit 2 and a message that names the input, the
-// budget and what the run needs. A point file leaves nothing behind; a container run keeps
-// its partial file and says how to continue it, which a resume with a larger budget does.
+// budget, what the run needs and a budget that is taken. A point file leaves nothing behind;
+// so does a container, whose tiles (of the import's budget) are imported again with the
+// budget's tiles.
 TEST_F(CliTest, TooSmallABudgetSaysWhatHelps) {
   const fs::path in = write_cloud("in.ply", 20000);
-  const RunResult file = run("smooth " + in.string() + " " + (dir_ / "out.ply").string() +
-                             " --memory-budget 1M --steps 2 --quiet");
-  EXPECT_EQ(file.exit_code, 2) << file.err;
-  EXPECT_NE(file.err.find("the memory budget of 1 MiB is too small for " + in.string() + " (the run needs "),
-            std::string::npos)
-      << file.err;
-  EXPECT_NE(file.err.find("give a larger --memory-budget"), std::string::npos) << file.err;
-  std::vector<std::string> left;
-  for (const auto& e : fs::directory_iterator(dir_)) left.push_back(e.path().filename().string());
-  EXPECT_EQ(left, std::vector<std::string>{"in.ply"});
-
-  // Budgets doubled from 1 MiB: too small before the run file is made (nothing kept), then
-  // too small for a later stage (the partial file kept, and the message says so).
-  const fs::path container = dir_ / "in.h5", out = dir_ / "run.h5", partial = dir_ / "run.h5.partial";
+  const fs::path container = dir_ / "in.h5";
   ASSERT_EQ(run("import " + in.string() + " " + container.string() + " --quiet").exit_code, 0);
-  bool kept = false;
-  for (int mib = 1; mib <= 64 && !kept; mib *= 2) {
-    SCOPED_TRACE(testing::Message() << mib << " MiB");
-    const RunResult r = run("smooth " + container.string() + " " + out.string() + " --memory-budget " +
-                            std::to_string(mib) + "M --steps 2 --quiet");
-    ASSERT_EQ(r.exit_code, 2) << "no budget kept a partial run before one was large enough: " << r.err;
-    EXPECT_NE(r.err.find("the memory budget of " + std::to_string(mib) + " MiB is too small for the tiles of"),
+  for (const fs::path& input : {in, container}) {
+    SCOPED_TRACE(input.string());
+    const RunResult file = run("smooth " + input.string() + " " + (dir_ / "out.ply").string() +
+                               " --memory-budget 256K --steps 2 --quiet");
+    EXPECT_EQ(file.exit_code, 2) << file.err;
+    EXPECT_NE(file.err.find("the memory budget of 256 KiB is too small for " + input.string() + " (the run needs "),
               std::string::npos)
-        << r.err;
-    kept = fs::exists(partial);
-    EXPECT_EQ(r.err.find("run.h5.partial: add --resume with a larger --memory-budget") != std::string::npos, kept)
-        << r.err;
+        << file.err;
+    EXPECT_NE(file.err.find("give a larger --memory-budget"), std::string::npos) << file.err;
+    std::vector<std::string> left;
+    for (const auto& e : fs::directory_iterator(dir_)) left.push_back(e.path().filename().string());
+    std::sort(left.begin(), left.end());
+    EXPECT_EQ(left, (std::vector<std::string>{"in.h5", "in.ply"}));
+    // The budget it names is taken (with the tiles of that budget).
+    const std::size_t named_at = file.err.find("--memory-budget, ");
+    ASSERT_NE(named_at, std::string::npos) << file.err;
+    const int named = std::atoi(file.err.c_str() + named_at + 17);
+    EXPECT_NE(file.err.find(std::to_string(named) + " MiB or more"), std::string::npos) << file.err;
+    const RunResult at_named = run("smooth " + input.string() + " " + (dir_ / "named.ply").string() +
+                                   " --memory-budget " + std::to_string(named) + "M --steps 2 --quiet");
+    EXPECT_EQ(at_named.exit_code, 0) << at_named.err;
+    fs::remove(dir_ / "named.ply");
   }
-  ASSERT_TRUE(kept);
-  EXPECT_EQ(run("smooth " + container.string() + " " + out.string() + " --memory-budget 256M --steps 2 --resume --quiet")
-                .exit_code,
-            0);
-  EXPECT_TRUE(fs::exists(out));
-  EXPECT_FALSE(fs::exists(partial));
+}
+
+// Tiles follow the budget: a container imported under a large budget (one tile) runs under
+// a small one, imported again with that budget's tiles in the run's folder, to the in-core
+// bits, into a point file and into a container; the folder goes when the run is done.
+TEST_F(CliTest, AContainerImportedUnderALargeBudgetRunsUnderASmallOne) {
+  const fs::path in = write_cloud("in.ply", 20000);
+  const std::string method = " --steps 2 --no-quadric-finish --threads 2 --quiet";
+  ASSERT_EQ(run("smooth " + in.string() + " " + (dir_ / "core.ply").string() + method).exit_code, 0);
+  const fs::path container = dir_ / "in.h5";
+  ASSERT_EQ(run("import " + in.string() + " " + container.string() + " --memory-budget 256M --quiet").exit_code, 0);
+  const RunResult file = run("smooth " + container.string() + " " + (dir_ / "out.ply").string() +
+                             " --memory-budget 2M --json" + method);
+  ASSERT_EQ(file.exit_code, 0) << file.err;
+  EXPECT_EQ(file.out.find("\"tiles\": 1,"), std::string::npos) << "not the case this test is for: " << file.out;
+  EXPECT_EQ(io::read_points(dir_ / "out.ply").positions, io::read_points(dir_ / "core.ply").positions);
+  const RunResult held = run("smooth " + container.string() + " " + (dir_ / "out.h5").string() +
+                             " --memory-budget 2M" + method);
+  ASSERT_EQ(held.exit_code, 0) << held.err;
+  ASSERT_EQ(run("export " + (dir_ / "out.h5").string() + " " + (dir_ / "back.ply").string() + " --quiet").exit_code, 0);
+  EXPECT_EQ(io::read_points(dir_ / "back.ply").positions, io::read_points(dir_ / "core.ply").positions);
+  for (const auto& e : fs::directory_iterator(dir_))
+    EXPECT_EQ(e.path().filename().string().find(".pointfair-run"), std::string::npos) << e.path();
 }
 
 // --quadric-finish: the pass after the flow (on by default), reported in the JSON; it moves

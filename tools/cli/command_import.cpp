@@ -1,4 +1,5 @@
 // pointfair import IN OUT.h5: a point file into the tiled HDF5 scan container.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -12,6 +13,8 @@
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/neighbors/neighborhood_size.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
+#include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/import.hpp"
 
@@ -64,7 +67,10 @@ int run_import(const Args& args) {
   io::require_distinct(input, output);
 
   const auto t0 = std::chrono::steady_clock::now();
-  options.tiling.max_tile_points = tile_points > 0 ? tile_points : tile_points_for_budget(budget, kAutoKMax);
+  // Sized as smooth sizes its tiles under the same budget (the largest automatic k and the
+  // default finish's k), so that a run under this budget takes the container as it is.
+  const int k_bound = std::max(kAutoKMax, QuadricProjectionParams{}.k);
+  options.tiling.max_tile_points = tile_points > 0 ? tile_points : tiles::tile_points_for_budget(budget, k_bound);
   options.tiling.cell_size = cell_size;
   options.source_name = std::filesystem::path(input).filename().string();
   options.source_size = input_file_size(input);

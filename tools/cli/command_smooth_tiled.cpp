@@ -19,6 +19,7 @@
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/point_file.hpp"
+#include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/import.hpp"
@@ -173,8 +174,23 @@ int run_smooth_out_of_core(const Args& args) {
     }
     io::require_distinct(input, output_path);
   }
+  // Tiles follow the budget: a container whose tiles are larger than the budget's (imported
+  // under a larger one) is imported again with the budget's tiles, into the run's folder, as
+  // a point file is (a container output then holds those tiles). A resumed run takes the
+  // input its folder holds.
+  const int flow_k = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
+  const int k_bound = params.finish ? std::max(flow_k, params.finish->k) : flow_k;
+  const std::uint64_t tile_points = tiles::tile_points_for_budget(ooc.memory_budget, k_bound);
+  bool retile = false;
+  if (container_in) {
+    const auto f = tiles::h5::File::open(input, false);
+    const tiles::TileTable table = tiles::read_tile_table(f);
+    for (std::size_t t = 0; t < table.size(); ++t) retile = retile || table.rows(t) > tile_points;
+    retile = retile || (ooc.resume && fs::exists(work_folder_of(output_path) / "input.h5"));
+    if (retile) io::require_distinct(input, output_path);
+  }
   bool work_existed = false;
-  if (!container_in || !container_out) {
+  if (!container_in || !container_out || retile) {
     work = work_folder_of(output_path);
     work_lock = open_work_folder(work, ooc.resume, work_existed);
   }
@@ -192,7 +208,7 @@ int run_smooth_out_of_core(const Args& args) {
       if (done || !keep || !fs::exists(work / "run.h5.partial", ec)) remove_work_folder(work);
     }
   } guard{work, work_existed};
-  if (!container_in) {
+  if (!container_in || retile) {
     imported = work / "input.h5";
     // What the run continues must be this input: its bytes, not only its size.
     const std::string digest = io::file_digest(input);
@@ -203,12 +219,16 @@ int run_smooth_out_of_core(const Args& args) {
                           " was started from another input (its content differs): give that input, or remove "
                           "the folder to start again");
     } else {
-      const int flow_k = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
-      const int k_bound = params.finish ? std::max(flow_k, params.finish->k) : flow_k;
       tiles::StreamImportOptions import;
-      import.container.tiling.max_tile_points = tile_points_for_budget(ooc.memory_budget, k_bound);
+      import.container.tiling.max_tile_points = tile_points;
       import.container.source_name = fs::path(input).filename().string();
       import.container.source_size = input_file_size(input);
+      if (container_in) {
+        // The container's own source, which an export names.
+        const auto f = tiles::h5::File::open(input, false);
+        import.container.source_name = f.string_attribute("/", "source_name");
+        import.container.source_size = static_cast<std::uint64_t>(f.int_attribute("/", "source_size_bytes"));
+      }
       import.container.source_digest = digest;
       // The import streams the file within the budget (at least its minimum of 16 MiB).
       import.memory_budget = std::max(ooc.memory_budget, kMinImportBudget);
@@ -258,9 +278,10 @@ int run_smooth_out_of_core(const Args& args) {
     if (!imported.empty()) {
       guard.keep = false;
       if (budget == nullptr) throw;
-      // The tiles were sized for the budget: only a larger one helps.
+      // The tiles were sized for the budget: only a larger one helps, with its own tiles.
       throw ParamError("the memory budget of " + tiles::size_text(budget->budget) + " is too small for " + input +
-                       " (the run needs " + tiles::size_text(budget->needed, true) + "): give a larger --memory-budget" +
+                       " (the run needs " + tiles::size_text(budget->needed, true) + "): give a larger --memory-budget, " +
+                       tiles::size_text(tiles::budget_to_name(budget->needed)) + " or more" +
                        (work_existed ? " (the interrupted run stays in " + work.filename().string() + ")" : ""));
     }
     std::error_code ec;
@@ -278,6 +299,7 @@ int run_smooth_out_of_core(const Args& args) {
   progress.finish();
   finish_progress.finish();
   attributes_progress.finish();
+  if (container_out) guard.done = true;  // a container imported again: its folder goes
 
   double seconds_write = 0.0;
   if (!container_out) {

@@ -38,16 +38,6 @@ std::uint64_t parse_size(std::string_view text, std::string_view what) {
   return value << shift;
 }
 
-// Bytes per tile point in the largest working set of a run (neighbour building: the tile
-// and a halo about as large, their tree and lists), doubled for the halo.
-static std::uint64_t bytes_per_tile_point(int k) { return 2 * (200 + 8 * static_cast<std::uint64_t>(k)); }
-
-std::uint64_t tile_points_for_budget(std::uint64_t budget, int k) {
-  const std::uint64_t reserve = std::uint64_t{16} << 20;  // the lambda sample and tables
-  const std::uint64_t usable = budget > 2 * reserve ? budget - reserve : budget / 2;
-  return std::max<std::uint64_t>(64, usable / bytes_per_tile_point(k));
-}
-
 std::uint64_t input_file_size(const std::filesystem::path& file) {
   io::require_regular_input(file);
   std::error_code ec;

@@ -14,9 +14,6 @@ bool is_container_path(const std::filesystem::path& path);
 /// Parses a size in bytes: "1048576", "512K", "256M", "256MiB", "2G", "2GiB" (binary units).
 std::uint64_t parse_size(std::string_view text, std::string_view what);
 
-/// Most points per tile so that a run with k neighbours stays within `budget` bytes.
-std::uint64_t tile_points_for_budget(std::uint64_t budget, int k);
-
 /// Size in bytes of the input file `file`. Throws IoError naming it when it is missing or not a
 /// regular file (a named pipe, a device: io::require_regular_input).
 std::uint64_t input_file_size(const std::filesystem::path& file);

@@ -17,6 +17,7 @@
 // after step S was committed (the others are then waiting in step S + 1);
 // POINTFAIR_MPI_KILL_AT=R:S makes rank R kill itself with SIGKILL there instead (no message,
 // no MPI_Abort: the launcher must notice and end the job).
+#include <algorithm>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -36,6 +37,8 @@
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/neighbors/neighborhood_size.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
+#include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/mpi_ranks.hpp"
@@ -164,7 +167,10 @@ int run_import(const std::vector<std::string>& args, tiles::Ranks& ranks) {
     throw cli::UsageError("pointfair_mpi import: OUT must be a .h5 file, got '" + output + "'");
   io::require_distinct(input, output);
   const auto t0 = std::chrono::steady_clock::now();
-  stream.container.tiling.max_tile_points = tile_points > 0 ? tile_points : cli::tile_points_for_budget(budget, kAutoKMax);
+  // Sized as smooth sizes its tiles under the same budget (the largest automatic k and the
+  // default finish's k), so that a run under this budget takes the container as it is.
+  const int k_bound = std::max(kAutoKMax, QuadricProjectionParams{}.k);
+  stream.container.tiling.max_tile_points = tile_points > 0 ? tile_points : tiles::tile_points_for_budget(budget, k_bound);
   stream.container.source_name = std::filesystem::path(input).filename().string();
   std::error_code ec;
   stream.container.source_size = std::filesystem::file_size(input, ec);
