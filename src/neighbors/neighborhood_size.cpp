@@ -99,9 +99,6 @@ NoiseEstimate estimate_noise(std::span<const Vec3> points) {
   return estimate;
 }
 
-int automatic_k(std::span<const Vec3> points) {
-  if (points.size() < 8) return kAutoKMin;
-  return k_for_noise_ratio(estimate_noise(points).ratio);
-}
+int automatic_k(std::span<const Vec3> points) { return k_for_noise_ratio(estimate_noise(points).ratio); }
 
 }  // namespace pointfair

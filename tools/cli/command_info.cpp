@@ -114,7 +114,7 @@ struct DefaultsEstimate {
 DefaultsEstimate estimate_defaults(std::span<const Vec3> positions) {
   DefaultsEstimate d;
   d.noise = estimate_noise(positions);
-  d.k = positions.size() < 8 ? kAutoKMin : k_for_noise_ratio(d.noise.ratio);
+  d.k = k_for_noise_ratio(d.noise.ratio);  // automatic_k: the minimum without a ratio
   NeighborParams neighbors = SmoothParams{}.neighbors;
   neighbors.k = d.k;
   if (positions.size() > static_cast<std::size_t>(d.k)) d.eps = build_neighborhoods(positions, neighbors).eps;

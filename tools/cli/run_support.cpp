@@ -1,7 +1,6 @@
 #include "run_support.hpp"
 
 #include <cctype>
-
 #include <cstdio>
 
 #include <algorithm>
