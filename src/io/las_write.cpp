@@ -11,6 +11,7 @@
 
 #include "io_error.hpp"
 #include "las_format.hpp"
+#include "number_text.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/las.hpp"
 #include "table_checks.hpp"
@@ -42,6 +43,8 @@ struct Plan {
   LasHeader header;
   std::vector<Column> columns;
   std::vector<LasRecord> vlrs, evlrs;
+  // A version was asked for: bit fields are checked, not clipped (check_bit_fields).
+  bool strict_fields = false;
 };
 
 // Fields of LAS 1.2's formats 0-3 that hold whatever a 1.4 format would: an attribute of
@@ -78,7 +81,7 @@ int choose_format(const PointTable& table) {
 }
 
 // See las_quantization_for.
-PositionQuantization choose_quantization(const std::vector<Vec3>& positions) {
+PositionQuantization bounds_quantization(const std::vector<Vec3>& positions) {
   if (positions.empty()) return PositionQuantization{};
   Vec3 lo = positions[0], hi = positions[0];
   for (const Vec3& p : positions) {
@@ -86,6 +89,14 @@ PositionQuantization choose_quantization(const std::vector<Vec3>& positions) {
     hi = hi.cwiseMax(p);
   }
   return las_quantization_for(lo, hi);
+}
+
+// The grid of write_las: the options' scale and offset over the table's or the bounds'.
+PositionQuantization choose_quantization(const PointTable& table, const LasWriteOptions& options) {
+  PositionQuantization q = table.quantization ? *table.quantization : bounds_quantization(table.positions);
+  if (options.scale) q.scale = *options.scale;
+  if (options.offset) q.offset = *options.offset;
+  return q;
 }
 
 }  // namespace
@@ -156,8 +167,51 @@ void plan_extra_bytes(const fs::path& file, const LasMetadata* source, const std
   plan.header.record_length = static_cast<std::uint16_t>(offset);
 }
 
+// LAS 1.2 (formats 0-3) or 1.4 (6-10) as LasWriteOptions::version_minor asks.
+void choose_version(const fs::path& file, const PointTable& table, int version_minor, LasHeader& h) {
+  if (version_minor != 2 && version_minor != 4) {
+    fail(file, "cannot write LAS 1." + std::to_string(version_minor) + " (1.2 or 1.4)");
+  }
+  const bool wave = table.find("wave_packet_index") != nullptr;
+  if (version_minor == 2 && wave) fail(file, "wave packets need LAS 1.3 or 1.4, not 1.2");
+  h.version_minor = version_minor;
+  h.point_format = version_minor == 2 ? choose_legacy_format(table) : choose_format(table);
+  // Bit 4 (a WKT coordinate system) is what 1.4 requires for formats 6-10 and 1.2 reserves.
+  h.global_encoding = static_cast<std::uint16_t>(version_minor == 4 ? h.global_encoding | 16u : h.global_encoding & ~16u);
+}
+
+// The coordinate system records that `crs` replaces.
+bool is_crs_record(const LasRecord& record) {
+  if (record.user_id != "LASF_Projection") return false;
+  return record.record_id == 2111 || record.record_id == 2112 ||
+         (record.record_id >= 34735 && record.record_id <= 34737);
+}
+
+// `crs` as LAS stores it: OGC WKT (record 2112) where the WKT bit is set, else a GeoTIFF key
+// directory (record 34735: version 1.1.0, then id, location 0, count 1, value per key).
+LasRecord crs_record(const fs::path& file, const LasCoordinateSystem& crs, const LasHeader& h) {
+  if ((h.global_encoding & 16u) != 0) {
+    if (crs.wkt.empty()) fail(file, "the coordinate system has no WKT, which LAS 1.4 formats 6-10 need");
+    return {"LASF_Projection", 2112, "OGC WKT", crs.wkt + '\0', false};
+  }
+  if (crs.geo_keys.empty()) fail(file, "the coordinate system has no GeoTIFF keys, which LAS formats 0-5 need");
+  std::vector<std::pair<std::uint16_t, std::uint16_t>> keys = crs.geo_keys;
+  std::sort(keys.begin(), keys.end());
+  std::string data(8 * (keys.size() + 1), '\0');
+  const double head[4] = {1, 1, 0, static_cast<double>(keys.size())};
+  for (int i = 0; i < 4; ++i) store_le(LasStorage::U16, head[i], data.data() + 2 * i);
+  for (std::size_t k = 0; k < keys.size(); ++k) {
+    char* entry = data.data() + 8 * (k + 1);
+    store_le(LasStorage::U16, keys[k].first, entry);
+    store_le(LasStorage::U16, 1, entry + 4);
+    store_le(LasStorage::U16, keys[k].second, entry + 6);
+  }
+  return {"LASF_Projection", 34735, "GeoTIFF GeoKeyDirectoryTag", data, false};
+}
+
 // `count` points (table may hold none: a streaming writer's schema).
-Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuantization& q, std::uint64_t count) {
+Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuantization& q, std::uint64_t count,
+               const LasWriteOptions& options) {
   Plan plan;
   LasHeader& h = plan.header;
   const LasMetadata* source = table.las ? &*table.las : nullptr;
@@ -185,6 +239,10 @@ Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuan
       h.global_encoding = 16;  // WKT coordinate system bit, which 1.4 requires for formats 6-10
     }
     h.system_identifier = "OTHER";
+  }
+  if (options.version_minor != 0) {
+    plan.strict_fields = true;
+    if (source == nullptr || options.version_minor != h.version_minor) choose_version(file, table, options.version_minor, h);
   }
   h.generating_software = "pointfair";
   h.creation_day = today_day_of_year(h.creation_year);
@@ -225,8 +283,10 @@ Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuan
   if (!descriptors.empty()) {
     plan.vlrs.push_back({std::string(kLasSpecUserId), kExtraBytesRecordId, "Extra Bytes", descriptors, false});
   }
+  if (options.crs) plan.vlrs.push_back(crs_record(file, *options.crs, h));
   if (source != nullptr) {
     for (const LasRecord& record : source->records) {
+      if (options.crs && is_crs_record(record)) continue;
       const bool long_record = record.data.size() > 65535;
       if ((record.extended || long_record) && h.version_minor >= 4) {
         plan.evlrs.push_back(record);
@@ -279,6 +339,25 @@ void scan_points(const fs::path& file, const PointTable& table, const PositionQu
   }
 }
 
+// Plan::strict_fields: every value of a bit field within its bits (columns read `table`).
+void check_bit_fields(const fs::path& file, const PointTable& table, const std::vector<Column>& columns,
+                      const LasHeader& h, std::uint64_t first = 0) {
+  for (const Column& column : columns) {
+    if (column.source == nullptr || column.bits == 0) continue;
+    const double top = std::ldexp(1.0, static_cast<int>(column.bits)) - 1;
+    for (std::size_t i = 0; i < table.size(); ++i) {
+      const double value = column.source->values[i] * column.factor;
+      if (!(value >= 0 && value <= top)) {
+        std::string text;
+        append_number(text, value);
+        fail(file, "point " + std::to_string(first + i) + ": " + column.source->name + " " + text +
+                       " does not fit the " + std::to_string(column.bits) + " bits of LAS 1." +
+                       std::to_string(h.version_minor) + " format " + std::to_string(h.point_format) + "'s field");
+      }
+    }
+  }
+}
+
 void encode_block(const PointTable& table, const PositionQuantization& q, const Plan& plan, std::size_t first,
                   std::size_t records, std::vector<char>& block) {
   const std::size_t record = plan.header.record_length;
@@ -322,11 +401,12 @@ void write_record(FileSink& sink, const LasRecord& record, bool extended) {
 
 }  // namespace
 
-void write_las(const fs::path& file, const PointTable& table) {
+void write_las(const fs::path& file, const PointTable& table, const LasWriteOptions& options) {
   check_table(file, table);
-  const PositionQuantization q = table.quantization ? *table.quantization : choose_quantization(table.positions);
-  Plan plan = plan_file(file, table, q, table.size());
+  const PositionQuantization q = choose_quantization(table, options);
+  Plan plan = plan_file(file, table, q, table.size(), options);
   scan_points(file, table, q, plan.header);
+  if (plan.strict_fields) check_bit_fields(file, table, plan.columns, plan.header);
 
   write_file_atomically(file, [&](FileSink& sink) {
     sink.write(serialize_las_header(plan.header));
@@ -348,8 +428,8 @@ namespace {
 
 class LasBufferedWriter final : public PointChunkWriter {
  public:
-  LasBufferedWriter(const fs::path& file, const PointTable& schema, std::uint64_t count)
-      : path_(file), count_(count) {
+  LasBufferedWriter(const fs::path& file, const PointTable& schema, std::uint64_t count, const LasWriteOptions& options)
+      : path_(file), count_(count), options_(options) {
     table_.position_type = schema.position_type;
     table_.quantization = schema.quantization;
     table_.las = schema.las;
@@ -375,12 +455,13 @@ class LasBufferedWriter final : public PointChunkWriter {
       fail(path_, "only " + std::to_string(points_written_) + " of the " + std::to_string(count_) +
                       " declared points were written");
     }
-    write_las(path_, table_);
+    write_las(path_, table_, options_);
   }
 
  private:
   fs::path path_;
   std::uint64_t count_ = 0;
+  LasWriteOptions options_;
   PointTable table_;
 };
 
@@ -388,13 +469,13 @@ class LasBufferedWriter final : public PointChunkWriter {
 // is known, and again at the end with the bounds and the points by return.
 class LasStreamWriter final : public PointChunkWriter {
  public:
-  LasStreamWriter(const fs::path& file, const PointTable& schema, std::uint64_t count)
-      : path_(file), count_(count), q_(*schema.quantization) {
+  LasStreamWriter(const fs::path& file, const PointTable& schema, std::uint64_t count, const LasWriteOptions& options)
+      : path_(file), count_(count), q_(choose_quantization(schema, options)) {
     schema_.position_type = schema.position_type;
     schema_.quantization = schema.quantization;
     schema_.las = schema.las;
     for (const Attribute& attribute : schema.attributes) schema_.attributes.push_back({attribute.name, attribute.type, {}});
-    plan_ = plan_file(file, schema_, q_, count);
+    plan_ = plan_file(file, schema_, q_, count, options);
     scan_points(file, schema_, q_, plan_.header);  // checks the scale and offset
     file_.emplace(file);
     file_->sink().write(serialize_las_header(plan_.header));
@@ -417,6 +498,7 @@ class LasStreamWriter final : public PointChunkWriter {
         column.source = &chunk.attributes[static_cast<std::size_t>(column.source - schema_.attributes.data())];
       }
     }
+    if (plan_.strict_fields) check_bit_fields(path_, chunk, chunk_plan.columns, plan_.header, points_written_);
     const std::size_t record = plan_.header.record_length;
     const std::size_t block_records = std::max<std::size_t>(1, kBlockBytes / record);
     block_.resize(std::min(chunk.size(), block_records) * record);
@@ -450,9 +532,12 @@ class LasStreamWriter final : public PointChunkWriter {
 
 }  // namespace
 
-std::unique_ptr<PointChunkWriter> open_las_writer(const fs::path& file, const PointTable& schema, std::uint64_t count) {
-  if (schema.quantization) return std::make_unique<LasStreamWriter>(file, schema, count);
-  return std::make_unique<LasBufferedWriter>(file, schema, count);
+std::unique_ptr<PointChunkWriter> open_las_writer(const fs::path& file, const PointTable& schema, std::uint64_t count,
+                                                  const LasWriteOptions& options) {
+  if (schema.quantization || (options.scale && options.offset)) {
+    return std::make_unique<LasStreamWriter>(file, schema, count, options);
+  }
+  return std::make_unique<LasBufferedWriter>(file, schema, count, options);
 }
 
 }  // namespace pointfair::io

@@ -14,23 +14,18 @@ namespace fs = std::filesystem;
 
 namespace {
 
-enum class Format { Ply, Text, Las };
-
 std::string lower_extension(const fs::path& file) {
   std::string extension = file.extension().string();
   for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return extension;
 }
 
+using Format = PointFormat;
+
 Format format_of(const fs::path& file) {
-  const std::string extension = lower_extension(file);
-  if (extension == ".ply") return Format::Ply;
-  if (extension == ".xyz" || extension == ".txt" || extension == ".pts" || extension == ".csv" || extension == ".asc") {
-    return Format::Text;
-  }
-  // read_las explains how to decompress a .laz file.
-  if (extension == ".las" || extension == ".laz") return Format::Las;
+  if (const std::optional<PointFormat> format = point_format_of(file)) return *format;
   // Formats users will reasonably try get a clearer message than "unknown".
+  const std::string extension = lower_extension(file);
   if (extension == ".h5" || extension == ".hdf5") {
     detail::fail(file, "HDF5 files are not supported by this build yet");
   }
@@ -40,10 +35,20 @@ Format format_of(const fs::path& file) {
 
 }  // namespace
 
-bool is_supported_point_file(const fs::path& file) {
+std::optional<PointFormat> point_format_of(const fs::path& file) {
   const std::string extension = lower_extension(file);
-  return extension == ".ply" || extension == ".las" || extension == ".xyz" || extension == ".txt" || extension == ".pts" ||
-         extension == ".csv" || extension == ".asc";
+  if (extension == ".ply") return PointFormat::Ply;
+  if (extension == ".xyz" || extension == ".txt" || extension == ".pts" || extension == ".csv" || extension == ".asc") {
+    return PointFormat::Text;
+  }
+  // read_las explains how to decompress a .laz file.
+  if (extension == ".las" || extension == ".laz") return PointFormat::Las;
+  return std::nullopt;
+}
+
+bool is_supported_point_file(const fs::path& file) {
+  const std::optional<PointFormat> format = point_format_of(file);
+  return format && lower_extension(file) != ".laz";
 }
 
 PointTable read_points(const fs::path& file, const ReadOptions& options) {
@@ -62,7 +67,7 @@ void write_points(const fs::path& file, const PointTable& table, const WriteOpti
     write_ply(file, table, options.ply_encoding);
   } else if (format == Format::Las) {
     if (lower_extension(file) == ".laz") detail::fail(file, "writing LAZ (compressed LAS) is not supported; write .las");
-    write_las(file, table);
+    write_las(file, table, options.las);
   } else {
     write_xyz(file, table);
   }
@@ -84,7 +89,7 @@ std::unique_ptr<PointChunkWriter> open_point_writer(const fs::path& file, const 
   if (format == Format::Ply) return open_ply_writer(file, schema, count, options.ply_encoding);
   if (format == Format::Las) {
     if (lower_extension(file) == ".laz") detail::fail(file, "writing LAZ (compressed LAS) is not supported; write .las");
-    return open_las_writer(file, schema, count);
+    return open_las_writer(file, schema, count, options.las);
   }
   return open_xyz_writer(file, schema, count);
 }

@@ -121,8 +121,9 @@ class CliTest : public ::testing::Test {
     return wait_for(start(args), limit);
   }
 
+#ifdef POINTFAIR_FAILING_FSYNC
   // The environment in which the child's fsync fails with EIO from its call `from` on
-  // (failing_fsync.cpp, preloaded).
+  // (failing_fsync.cpp, preloaded; a target that builds it defines its path).
   static std::vector<std::string> failing_fsync(int from) {
     // The sanitizers' runtime would refuse to start behind a preloaded library.
     const char* asan = std::getenv("ASAN_OPTIONS");
@@ -130,6 +131,7 @@ class CliTest : public ::testing::Test {
             "ASAN_OPTIONS=" + std::string(asan != nullptr ? asan : "") + ":verify_asan_link_order=0",
             "POINTFAIR_TEST_FSYNC_FAILS_FROM=" + std::to_string(from)};
   }
+#endif
 
   // True once the child catches both SIGINT and SIGTERM (its handlers are installed), false
   // if it exited first. Reads the signal mask in /proc; no time limit.

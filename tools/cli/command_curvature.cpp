@@ -6,6 +6,7 @@
 #include "commands.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "interrupt.hpp"
+#include "las_options.hpp"
 #include "run_support.hpp"
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/version.hpp"
@@ -31,7 +32,9 @@ int run_curvature(const Args& args) {
                     &output_path);
   add_method_options(parser, params);
   add_output_options(parser, output, false);
+  add_las_options(parser, output.las);
   if (!parser.parse(args)) return 0;
+  require_las_output(output.las, output_path);
   params.validate();
   set_thread_count(output.threads);
   // A named pipe or a device at OUT is refused before any work, not after it.

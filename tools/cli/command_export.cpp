@@ -6,6 +6,7 @@
 #include "pointfair/io/atomic_file.hpp"
 #include "container_export.hpp"
 #include "out_of_core.hpp"
+#include "las_options.hpp"
 #include "run_support.hpp"
 #include "pointfair/tiles/container.hpp"
 
@@ -32,7 +33,9 @@ int run_export(const Args& args) {
                "Memory for points held at a time (e.g. 256M, 2G); the cloud streams through. Default 256M.",
                [&](std::string_view v) { budget = parse_size(v, "--memory-budget"); });
   add_output_options(parser, out, true);
+  add_las_options(parser, out.las);
   if (!parser.parse(args)) return 0;
+  require_las_output(out.las, output);
   if (!is_container_path(input)) throw UsageError("pointfair export: IN must be a .h5 file, got '" + input + "'");
   io::require_output_path(output);
   ContainerExport options;

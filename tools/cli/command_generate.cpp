@@ -6,6 +6,7 @@
 
 #include "commands.hpp"
 #include "pointfair/common/params_error.hpp"
+#include "las_options.hpp"
 #include "run_support.hpp"
 #include "pointfair/eval/truth.hpp"
 #include "pointfair/shapes/shapes.hpp"
@@ -58,7 +59,9 @@ int run_generate(const Args& args) {
                [&](std::string_view v) { spec.minor = parse_double(v, "--minor"); });
   parser.value("encoding", "binary|binary-be|ascii", "PLY encoding. Default binary.",
                [&](std::string_view v) { output.encoding = std::string(v); });
+  add_las_options(parser, output.las);
   if (!parser.parse(args)) return 0;
+  require_las_output(output.las, output_path);
   if (points < 1 || points > 500'000'000) throw UsageError("--points must be in 1..500000000");
   if (!(noise_percent >= 0) || !std::isfinite(noise_percent)) throw UsageError("--noise must be >= 0");
 

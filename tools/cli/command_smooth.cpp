@@ -8,6 +8,7 @@
 #include "interrupt.hpp"
 #include "progress.hpp"
 #include "number_text.hpp"
+#include "las_options.hpp"
 #include "run_support.hpp"
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
@@ -46,7 +47,9 @@ int run_smooth(const Args& args) {
                "input: the paper's noise-free neighbourhoods.",
                [&](std::string_view v) { reference = std::string(v); });
   add_output_options(parser, output, true);
+  add_las_options(parser, output.las);
   if (!parser.parse(args)) return 0;
+  require_las_output(output.las, output_path);
   params.validate();
   set_thread_count(output.threads);
   // A named pipe or a device at OUT is refused before any work, not after it.

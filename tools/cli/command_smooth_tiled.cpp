@@ -12,6 +12,7 @@
 #include "interrupt.hpp"
 #include "out_of_core.hpp"
 #include "progress.hpp"
+#include "las_options.hpp"
 #include "run_support.hpp"
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
@@ -148,7 +149,9 @@ int run_smooth_out_of_core(const Args& args) {
   parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters).",
               [&] { ooc.resume = true; });
   add_output_options(parser, output, true);
+  add_las_options(parser, output.las);
   if (!parser.parse(args)) return 0;
+  require_las_output(output.las, output_path);
   params.validate();
   set_thread_count(output.threads);
   const auto t_start = std::chrono::steady_clock::now();

@@ -179,6 +179,7 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
   io::WriteOptions write;
   write.input = input;
   write.ply_encoding = ply_encoding(out.encoding);
+  write.las = out.las;
   const auto writer = io::open_point_writer(output, schema, summary.points, write);
   io::PointTable chunk;
   while (reader.read(chunk, chunk_points) > 0) {

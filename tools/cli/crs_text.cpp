@@ -29,12 +29,49 @@ std::string wkt_name(std::string_view wkt) {
   return std::string(wkt.substr(open + 1, close - open - 1));
 }
 
+// The EPSG code of the last AUTHORITY (WKT1) or ID (WKT2) in `wkt`, or empty.
+std::string last_code(std::string_view wkt) {
+  const std::string code = last_epsg(wkt, "AUTHORITY");
+  return code.empty() ? last_epsg(wkt, "ID") : code;
+}
+
+// The text after the bracket that closes the one opened at `open` (quotes skipped); empty
+// when it is not closed.
+std::string_view after_closing(std::string_view wkt, std::size_t open) {
+  int depth = 0;
+  bool quoted = false;
+  for (std::size_t i = open; i < wkt.size(); ++i) {
+    const char c = wkt[i];
+    if (c == '"') quoted = !quoted;
+    if (quoted) continue;
+    if (c == '[' || c == '(') ++depth;
+    if ((c == ']' || c == ')') && --depth == 0) return wkt.substr(i + 1);
+  }
+  return {};
+}
+
+// A compound system without a code of its own (EPSG:N+M, as PROJ writes it): the
+// horizontal code (the last before the vertical system) and the vertical one. Empty when
+// `wkt` is not such a system.
+std::string compound_codes(std::string_view wkt) {
+  if (!wkt.starts_with("COMPD_CS") && !wkt.starts_with("COMPOUNDCRS")) return {};
+  std::size_t vertical = wkt.find("VERT_CS[");
+  if (vertical == std::string_view::npos) vertical = wkt.find("VERTCRS[");
+  if (vertical == std::string_view::npos) return {};
+  const std::string_view rest = after_closing(wkt, wkt.find('[', vertical));
+  if (!last_code(rest).empty()) return {};  // the compound has a code of its own
+  const std::string horizontal = last_code(wkt.substr(0, vertical));
+  const std::string height = last_code(wkt.substr(0, wkt.size() - rest.size()));
+  if (horizontal.empty() || height.empty()) return {};
+  return "EPSG:" + horizontal + "+" + height;
+}
+
 std::string from_wkt(std::string_view wkt) {
   while (!wkt.empty() && wkt.back() == '\0') wkt.remove_suffix(1);
-  std::string code = last_epsg(wkt, "AUTHORITY");
-  if (code.empty()) code = last_epsg(wkt, "ID");
+  const std::string code = last_code(wkt);
   const std::string name = wkt_name(wkt);
-  std::string text = code.empty() ? "no EPSG code" : "EPSG:" + code;
+  std::string text = compound_codes(wkt);
+  if (text.empty()) text = code.empty() ? "no EPSG code" : "EPSG:" + code;
   if (!name.empty()) text += " \"" + name + "\"";
   return text + " (OGC WKT)";
 }

@@ -4,6 +4,7 @@
 
 #include "arguments.hpp"
 #include "pointfair/finish/quadric_projection.hpp"
+#include "pointfair/io/las.hpp"
 #include "pointfair/smooth.hpp"
 
 namespace pointfair::cli {
@@ -26,6 +27,8 @@ struct OutputOptions {
   std::string attribute_prefix;
   /// PLY encoding: "binary", "binary-be", "ascii"; empty: a PLY input's, else "binary".
   std::string encoding;
+  /// LAS version, scale, offset and coordinate system of a LAS output (las_options.hpp).
+  io::LasWriteOptions las;
   bool json = false;
   bool quiet = false;
   int threads = 0;

@@ -35,6 +35,7 @@ void write_output(const std::filesystem::path& path, const io::PointTable& table
   io::WriteOptions options;
   options.input = input;
   options.ply_encoding = ply_encoding(output.encoding);
+  options.las = output.las;
   io::write_points(path, table, options);
 }
 
@@ -52,9 +53,7 @@ io::ScalarType curvature_type(const PointAttributes& a) {
 }
 
 std::string attribute_prefix_for(const std::filesystem::path& output) {
-  std::string extension = output.extension().string();
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return extension == ".ply" ? "scalar_" : "";
+  return io::point_format_of(output) == io::PointFormat::Ply ? "scalar_" : "";
 }
 
 void add_result_columns(io::PointTable& table, const PointAttributes& a,

@@ -4,6 +4,10 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "pointfair/io/point_chunks.hpp"
 #include "pointfair/io/point_table.hpp"
@@ -39,10 +43,43 @@ PointTable read_las(const std::filesystem::path& file, const ReadOptions& option
 std::unique_ptr<PointChunkReader> open_las_reader(const std::filesystem::path& file,
                                                   const ReadOptions& options = {});
 
+/// A coordinate system as LAS files store it (ASPRS LAS 1.4 R15, section 2.5): an OGC WKT
+/// record for LAS 1.4's point formats 6-10, GeoTIFF keys for formats 0-5. Plain data: the
+/// CLI fills it from an EPSG code through PROJ.
+struct LasCoordinateSystem {
+  /// OGC WKT (version 1), written as the record LASF_Projection 2112.
+  std::string wkt{};
+  /// GeoTIFF keys (key id, value), each stored in the key directory (LASF_Projection 34735)
+  /// with TIFF tag location 0: e.g. {1024, 1} (a projected model), {3072, 2056} (its EPSG
+  /// code), {4096, 5728} (a vertical one). Empty: the system cannot be written as GeoTIFF keys.
+  std::vector<std::pair<std::uint16_t, std::uint16_t>> geo_keys{};
+};
+
+/// What write_las chooses, beyond what the table says of itself.
+struct LasWriteOptions {
+  /// 2 (LAS 1.2, point formats 0-3) or 4 (LAS 1.4, formats 6-10); 0: table.las's version and
+  /// format, else the rule of write_las. A table read from LAS is converted by field name:
+  /// into 1.2, format 0-3 by gps_time and colours, and a value beyond the narrower field
+  /// (classification above 31, return numbers above 7) is an error naming the point (no
+  /// silent clipping; the same check holds for every bit field whenever a version is given);
+  /// 1.4's overlap and scanner_channel, and every other attribute without a field, go to
+  /// the extra bytes (a 1.2 reader skips them); wave packets cannot go to 1.2. Into 1.4, the
+  /// smallest of formats 6-10 that holds the fields.
+  int version_minor = 0;
+  /// The scale of the stored integers on x, y, z; empty: table.quantization's, else
+  /// las_quantization_for's.
+  std::optional<Vec3> scale{};
+  /// The offset of the stored integers; empty: as the scale.
+  std::optional<Vec3> offset{};
+  /// Replaces every coordinate system record of the source (LASF_Projection 2111, 2112,
+  /// 34735-34737); empty: the source's records are kept, a table from elsewhere has none.
+  std::optional<LasCoordinateSystem> crs{};
+};
+
 /// Writes `table` atomically (see write_file_atomically) as a LAS file.
 ///
-/// Version and point format: those of table.las when present (a table read from LAS);
-/// otherwise LAS 1.2, which every reader takes, when every attribute is one of intensity,
+/// Version and point format: options.version_minor's when given, else those of table.las
+/// when present (a table read from LAS); otherwise LAS 1.2, which every reader takes, when every attribute is one of intensity,
 /// the scan direction and edge flags, synthetic, key_point, withheld, user_data,
 /// point_source_id, gps_time, red, green, blue (format 0; 1 with gps_time, 2 with colours,
 /// 3 with both); else LAS 1.4 with the smallest of formats 6-10 that holds the table's
@@ -50,8 +87,8 @@ std::unique_ptr<PointChunkReader> open_las_reader(const std::filesystem::path& f
 /// with wave packets and colour (1.4 formats are the only ones with 16 returns, the overlap
 /// flag, 256 classes and described extra bytes).
 ///
-/// Positions: quantized with table.quantization when present; otherwise
-/// las_quantization_for the bounding box.
+/// Positions: quantized with options.scale and options.offset where given, else with
+/// table.quantization when present, else las_quantization_for the bounding box.
 ///
 /// Attributes named like a standard field of the format fill that field (converted to the
 /// field's type: rounded, and saturated to its range or bit width; uint8 red, green, blue and
@@ -64,7 +101,7 @@ std::unique_ptr<PointChunkReader> open_las_reader(const std::filesystem::path& f
 /// Throws IoError "<file>: <problem>" for a non-finite position, a position outside the
 /// int32 range of the quantization, an invalid table.las (version/format), an attribute
 /// name too long for an extra bytes descriptor (32 characters), or a write failure.
-void write_las(const std::filesystem::path& file, const PointTable& table);
+void write_las(const std::filesystem::path& file, const PointTable& table, const LasWriteOptions& options = {});
 
 /// The integer grid write_las chooses for positions within [lo, hi] when the table has no
 /// quantization: offset = lo rounded down to a whole unit on each axis; one scale for all
@@ -75,11 +112,12 @@ void write_las(const std::filesystem::path& file, const PointTable& table);
 /// bytes as write_las without holding the points.
 PositionQuantization las_quantization_for(const Vec3& lo, const Vec3& hi);
 
-/// write_las a chunk at a time, with the quantization and LAS metadata of `schema`: with a
-/// quantization (a table read from LAS, a container imported from one) the records stream and
-/// the header is completed by finish() (the same bytes as write_las). Without one the grid
-/// depends on the bounds of every point, so the chunks are kept in memory until finish().
+/// write_las a chunk at a time, with the quantization and LAS metadata of `schema` and
+/// `options`: with a quantization (a table read from LAS, a container imported from one, or
+/// both options.scale and options.offset) the records stream and the header is completed by
+/// finish() (the same bytes as write_las). Without one the grid depends on the bounds of
+/// every point, so the chunks are kept in memory until finish().
 std::unique_ptr<PointChunkWriter> open_las_writer(const std::filesystem::path& file, const PointTable& schema,
-                                                  std::uint64_t count);
+                                                  std::uint64_t count, const LasWriteOptions& options = {});
 
 }  // namespace pointfair::io

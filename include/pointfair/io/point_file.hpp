@@ -5,6 +5,7 @@
 #include <memory>
 #include <optional>
 
+#include "pointfair/io/las.hpp"
 #include "pointfair/io/ply.hpp"
 #include "pointfair/io/point_chunks.hpp"
 #include "pointfair/io/point_table.hpp"
@@ -14,9 +15,19 @@ namespace pointfair::io {
 struct WriteOptions {
   /// PLY encoding; empty: the source's (PointTable::ply), else binary little endian.
   std::optional<PlyEncoding> ply_encoding;
+  /// LAS version, scale, offset and coordinate system (LasWriteOptions); other formats
+  /// ignore them (the CLI refuses them for other outputs).
+  LasWriteOptions las{};
   /// When not empty, write_points refuses to write onto this file (see require_distinct).
   std::filesystem::path input;
 };
+
+/// The point file formats, as named by a file's extension.
+enum class PointFormat { Ply, Las, Text };
+
+/// The format of `file` by its extension, case-insensitively: .ply; .las (and .laz, which
+/// the LAS reader refuses with a hint); .xyz .txt .pts .csv .asc. Empty for any other.
+std::optional<PointFormat> point_format_of(const std::filesystem::path& file);
 
 /// True if the extension (case-insensitive) is one read_points/write_points handle:
 /// .ply, .las, .xyz, .txt, .pts, .csv or .asc.
