@@ -1,5 +1,7 @@
 #include "pointfair/common/parallel.hpp"
 
+#include "pointfair/common/params_error.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <exception>
@@ -51,7 +53,7 @@ std::atomic<const std::atomic<int>*> g_stop_flag{nullptr};
 void set_stop_flag(const std::atomic<int>* flag) { g_stop_flag.store(flag); }
 
 void set_thread_count(int threads) {
-  if (threads < 0) throw std::invalid_argument("thread count must be >= 0");
+  require(threads >= 0, "thread count must be >= 0, got " + std::to_string(threads));
   auto& s = setting();
   std::lock_guard lock(s.mutex);
   s.threads = threads;

@@ -1,9 +1,9 @@
 #include "halo_scratch.hpp"
 
+#include <cassert>
 #include <algorithm>
 #include <limits>
 
-#include "pointfair/common/params_error.hpp"
 #include "pointfair/io/point_table.hpp"
 
 namespace pointfair::tiles {
@@ -12,8 +12,8 @@ HaloScratch::HaloScratch(const std::filesystem::path& directory, std::string nam
                          std::span<const std::vector<std::uint64_t>> halo_rows, std::span<const std::uint64_t> offsets,
                          std::size_t first_tile, std::size_t end_tile, const OrderOf& order_of)
     : file_(directory, std::move(name)), first_tile_(first_tile) {
-  require(first_tile <= end_tile && end_tile < offsets.size() && end_tile <= halo_rows.size(),
-          "halo scratch: tiles out of range");
+  // Our own invariants (the run's tiles and halos), checked in debug builds.
+  assert(first_tile <= end_tile && end_tile < offsets.size() && end_tile <= halo_rows.size());
   const std::size_t tiles = end_tile - first_tile;
   halo_begin_.assign(tiles + 1, 0);
   for (std::size_t i = 0; i < tiles; ++i) halo_begin_[i + 1] = halo_begin_[i] + halo_rows[first_tile + i].size();
@@ -28,12 +28,11 @@ HaloScratch::HaloScratch(const std::filesystem::path& directory, std::string nam
     std::uint64_t count = 0;
   };
   std::vector<Piece> pieces;
-  const std::uint64_t lowest = offsets[first_tile], end = offsets[end_tile];
+  [[maybe_unused]] const std::uint64_t lowest = offsets[first_tile], end = offsets[end_tile];
   for (std::size_t i = 0; i < tiles; ++i) {
     const std::vector<std::uint64_t>& halo = halo_rows[first_tile + i];
     for (std::size_t j = 0; j < halo.size(); ++j)
-      require(halo[j] >= lowest && halo[j] < end && (j == 0 || halo[j] > halo[j - 1]),
-              "halo scratch: halo rows out of range or order");
+      assert(halo[j] >= lowest && halo[j] < end && (j == 0 || halo[j] > halo[j - 1]));
     for (std::size_t j = 0; j < halo.size();) {
       const std::uint64_t g = halo[j];
       const std::size_t owner =
@@ -63,11 +62,10 @@ HaloScratch::HaloScratch(const std::filesystem::path& directory, std::string nam
       const std::vector<Index> order = order_of(u);
       if (order.empty()) continue;
       const std::uint64_t rows = offsets[u + 1] - offsets[u];
-      require(order.size() == rows, "halo scratch: an order of the wrong length");
+      assert(order.size() == rows);
       slot_of.assign(rows, std::numeric_limits<Index>::max());
       for (std::size_t s = 0; s < rows; ++s) {
-        require(order[s] < rows && slot_of[order[s]] == std::numeric_limits<Index>::max(),
-                "halo scratch: an order that is not a permutation");
+        assert(order[s] < rows && slot_of[order[s]] == std::numeric_limits<Index>::max());  // a permutation
         slot_of[order[s]] = static_cast<Index>(s);
       }
       for (std::uint64_t r = runs_begin_[i]; r < runs_begin_[i + 1]; ++r)

@@ -1,6 +1,8 @@
 // What the steps read: each tile's lists, the halo scratch, the block lists and their scratch.
 #include "tiled_run.hpp"
 
+#include <cassert>
+
 namespace pointfair::tiles::detail {
 
 // ---- steps ------------------------------------------------------------------------------------
@@ -346,9 +348,9 @@ void Run::load_block_lists(std::size_t t, int h, BlockSlot& s) {
   const std::size_t d = static_cast<std::size_t>(block_lists_depth_), kk = static_cast<std::size_t>(k());
   s.mapped = block_lists_->map(at, size);
   const unsigned char* p = s.mapped.data();
-  const unsigned char* const end = p + size;
+  [[maybe_unused]] const unsigned char* const end = p + size;
   const auto next = [&](std::uint64_t bytes) {
-    require(static_cast<std::uint64_t>(end - p) >= padded(bytes), "block lists: a record cut short");
+    assert(static_cast<std::uint64_t>(end - p) >= padded(bytes));  // the record as written by this run
     const unsigned char* const q = p;
     p += padded(bytes);
     return q;
@@ -361,17 +363,17 @@ void Run::load_block_lists(std::size_t t, int h, BlockSlot& s) {
   };
   std::array<std::uint64_t, 2> header{};
   std::memcpy(header.data(), next(sizeof(header)), sizeof(header));
-  require(header[0] == d, "block lists: a record of another depth");
+  assert(header[0] == d);
   s.tile = t;
   copy(s.level_end, d + 1);
-  require(header[1] == 0 || header[1] == s.level_end[0], "block lists: an order of the wrong length");
+  assert(header[1] == 0 || header[1] == s.level_end[0]);
   const std::size_t rings = s.level_end[d] - s.level_end[0], listed = s.level_end[d - 1];
   copy(s.sorted_rows, rings);
   copy(s.sorted_local, rings);
   const auto* counts = reinterpret_cast<const std::uint16_t*>(next(listed * sizeof(std::uint16_t)));
   const auto* indices = reinterpret_cast<const Index*>(next(listed * kk * sizeof(Index)));
   copy(s.order, header[1]);
-  require(p == end, "block lists: a record longer than its content");
+  assert(p == end);
   s.all = NeighborhoodsView(k(), std::span<const Index>(indices, listed * kk), std::span<const std::uint16_t>(counts, listed), eps_);
   const std::size_t levels = static_cast<std::size_t>(h);
   s.views.resize(levels);
@@ -531,7 +533,7 @@ void Run::read_block(std::size_t t, int h, const h5::Dataset& source, BlockSlot&
   // A shorter block than the scratch's (the last, or the last before a rebuild) takes the
   // first h levels of its closure: the closure of depth h.
   const bool cached = block_lists_ && h <= block_lists_depth_;
-  require(!listed || (cached && ring_buffer >= 0), "a block in list order without its lists and rings");
+  assert(!listed || (cached && ring_buffer >= 0));  // list order needs the lists and the rings
   if (cached) load_block_lists(t, h, s);
   else build_block_lists(t, h, s, false);
   // Positions of step n: the tile's rows (in row order into `by_row`, moved into Morton order

@@ -1,6 +1,8 @@
 // The steps: positions held in memory or streamed, single steps and blocks, in a pipeline.
 #include "tiled_run.hpp"
 
+#include <cassert>
+
 namespace pointfair::tiles::detail {
 
 void Run::release_positions() {
@@ -552,7 +554,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
     if (halos != nullptr) scratch_holds_[static_cast<std::size_t>(written_halos)].clear();
     // A source in list order was written by the previous step of this call, with the halos.
     const bool source_listed = source_in_list_order();
-    require(!source_listed || halos_from >= 0, "a streamed step in list order without its halos");
+    assert(!source_listed || halos_from >= 0);  // a source in list order comes with its halos
     stages.read = [&, halos_from, source_listed](std::size_t item, std::size_t slot) {
       Slot& s = slots[slot];
       s.tile = work[item];
