@@ -2,7 +2,7 @@
 
 #include <string>
 
-#include "tiled_run.hpp"
+#include "run/run.hpp"
 
 namespace pointfair::tiles {
 

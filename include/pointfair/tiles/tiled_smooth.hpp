@@ -81,7 +81,7 @@ struct OutOfCoreOptions {
   /// Streamed steps (single process, one step per load, positions not held) keep each tile's
   /// halo in a scratch file beside the output, written by the tiles that hold its points, and
   /// read it with one read a tile instead of a selection of scattered rows of the run file
-  /// (src/tiles/halo_scratch.hpp). Takes 48 bytes of disk per halo point, unlinked: nothing is
+  /// (src/tiles/run/halo_scratch.hpp). Takes 48 bytes of disk per halo point, unlinked: nothing is
   /// left behind. Off, or where the scratch cannot be made or does not fit in the budget: the
   /// halos are read from the run file. Results do not depend on it.
   bool halo_scratch = true;

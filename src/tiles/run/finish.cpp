@@ -1,5 +1,5 @@
 // The quadric finish out of core, the attributes and the end of the run.
-#include "tiled_run.hpp"
+#include "run.hpp"
 
 namespace pointfair::tiles::detail {
 

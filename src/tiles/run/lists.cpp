@@ -1,5 +1,5 @@
 // What the steps read: each tile's lists, the halo scratch, the block lists and their scratch.
-#include "tiled_run.hpp"
+#include "run.hpp"
 
 #include <cassert>
 

@@ -1,5 +1,5 @@
 // The run file and its commit record: created or resumed, shared by the ranks, committed.
-#include "tiled_run.hpp"
+#include "run.hpp"
 
 #include <cstdio>
 

@@ -1,10 +1,15 @@
 #pragma once
 // The out-of-core run (smooth_out_of_core): its commit record, and the Run that creates or
 // resumes the run file, builds the tiles' neighbourhoods, streams the steps, runs the finish
-// and writes the attributes. Its parts are defined in tiled_run.cpp (the run file and its
-// state), tiled_neighbors.cpp (neighbourhoods and the lambda sample), tiled_lists.cpp (the
-// steps' lists, halos and block scratch), tiled_steps.cpp (the steps) and tiled_finish.cpp
-// (the quadric finish, the attributes and the end).
+// and writes the attributes. Its parts, in the order a run goes through them:
+//   run.cpp            the run file, its state and commit record, resume
+//   neighbors.cpp      neighbourhoods, eps and k, the lambda sample
+//   lists.cpp          the steps' lists, halos, the halo and block scratch
+//   steps.cpp          the step loop every strategy shares: lambda, automatic stop, commits
+//   held_step.cpp      a step over positions held in memory (the strategy while they fit)
+//   streamed_step.cpp  a step streaming each tile and its halo from the run file
+//   block_step.cpp     a step or temporal block over a tile's ring closure (BlockSlot)
+//   finish.cpp         the quadric finish, the attributes and the end
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -100,6 +105,88 @@ std::string parameters_key(const SmoothParams& p);
 // Every parameter of the quadric finish, for the same line.
 std::string finish_key(const QuadricProjectionParams& q);
 
+// One tile in flight in a plain step's pipeline (held or streamed; a block's is a BlockSlot).
+struct StepSlot {
+  std::size_t tile = 0;
+  std::shared_ptr<const TileNeighbors> nb;
+  std::shared_ptr<TileNeighbors> own;  // lists read for this slot, reused from tile to tile
+  // A streamed step: `local` was read in the lists' order (a source in list order), and
+  // where row r of the tile sits in it (for the lambda sample of a step written in list order).
+  bool read_in_list_order = false;
+  std::vector<Index> slot_of;
+  // With lists in Morton order (TileNeighbors::order), the tile's rows are read into `next`
+  // (row order) and moved into `local`; the step writes `next`, moved back into the first
+  // rows of `local` in row order.
+  std::vector<Vec3> local, next;
+  StepStats stats;
+  const std::vector<Vec3>& result() const { return nb->order.empty() ? next : local; }
+};
+
+// What the steps of one call of Run::run_steps share: the tiles, the pipeline's slots, and
+// the commit or writes a step leaves to the next.
+struct StepWork {
+  std::vector<std::size_t> tiles;  // this rank's tiles with points
+  std::vector<Index> identity;     // 0, 1, ...: the rows a tile's step computes
+  // Collective writes a step makes: as many per rank as the rank with the most tiles.
+  std::uint64_t writes = 0;
+  std::size_t slot_count = 1;
+  std::vector<StepSlot> slots;
+  std::vector<BlockSlot> block_slots;
+  // The commit of a step (commit_state) mostly waits for the disk. In a single process it is
+  // left pending and finished by this thread while the worker computes the next step's first
+  // tile: before the next step writes anything (it overwrites the buffer the commit leaves
+  // behind), before anything else touches the file, and before run_steps returns. The step's
+  // progress is reported once it is committed, as before.
+  bool commit_pending = false;
+  // A held step in list order in a single process goes further: it leaves its writes to the
+  // next step, whose pipeline reads nothing from the file, so this thread writes the tiles
+  // (from the held buffer: the next step only reads it) and commits them while the worker
+  // computes. The step's computes then follow the last one's without waiting for its last
+  // tile to be written. `record` is the state to commit once its tiles are written.
+  struct Lagged {
+    bool pending = false;
+    int buffer = 0;
+    std::string target;
+    std::vector<std::int64_t> record;
+    std::size_t written = 0;  // items of `tiles` written
+  } lagged;
+};
+
+// What one step (or temporal block) does, decided before its pipeline runs (Run::plan_step),
+// and what its stages count. The strategies' stages read and fill it.
+struct StepPlan {
+  int step = 0;
+  int h = 1;  // steps in this block (1 but for temporal blocks)
+  double lambda = 0.0;
+  // The positions the step reads and the buffer it writes (named target_name).
+  std::optional<h5::Dataset> source, target;
+  std::string target_name;
+  // The lambda sample's positions after this step (or block), gathered as its tiles are
+  // written: only where the next step measures the lambda (smooth()'s rule: every step of
+  // the anisotropic flow, the last of the isotropic one). A resumed run reads them anew.
+  bool gather_sample = false;
+  // Whether this step writes its positions in list order (held_list_order_): not the last
+  // step, nor one before a rebuild, which write row order as they go instead of after.
+  bool list_order_step = false;
+  // Whether its writes go to the next step (StepWork::Lagged): not where the run stops after it.
+  bool lag_writes = false;
+  // Streamed steps write list order too, on the same terms, while the halo scratch carries
+  // the halos (the run file's rows of a halo are then not in row order) and every tile's
+  // lists have an order; the slots then hold no copy of a tile in row order.
+  HaloScratch* halos = nullptr;
+  bool streamed_list_order = false;
+  // The buffer of the halo (or ring) scratch this step writes.
+  int written_halos = 0;
+  // Blocks with their lists and rings from the scratch; those of them that write list order.
+  bool scratch_block = false, block_list_order = false;
+  // Degenerate points per step of the block; of a plain step.
+  std::vector<std::size_t> block_degenerate;
+  std::size_t degenerate = 0;
+  // A compensated held step's plain updates (held_step.cpp), per tile, once made.
+  std::vector<StepStats> plain_stats;
+  bool updated_ready = false;
+};
+
 class Run {
  public:
   Run(const fs::path& input, const fs::path& output, const SmoothParams& params, const OutOfCoreOptions& options)
@@ -179,7 +266,37 @@ class Run {
   void read_tile_positions(std::size_t t, const TileNeighbors& nb, const h5::Dataset& source,
                            std::vector<Vec3>& local, std::vector<Vec3>& scratch, bool reorder = true,
                            int halo_buffer = -1, bool listed = false) const;
+  // The steps (steps.cpp): every step from the state's, through the pipeline of the strategy
+  // that fits, committed one by one; false when OutOfCoreOptions::stop_after_steps ended them.
   bool run_steps(OutOfCoreReport& report);
+  // The lambda the first step of this call starts from when it is not measured every step.
+  double lambda_at_start(int start, bool every_step);
+  // The lambdas of the steps before `start`, from the step log (for the automatic stop).
+  std::vector<double> logged_lambdas(int start);
+  StepWork start_step_work(OutOfCoreReport& report);
+  // The neighbourhoods rebuilt before `step`, and what depends on them.
+  void rebuild_for(int step, StepWork& work, OutOfCoreReport& report, double& lambda, bool every_step);
+  StepPlan plan_step(int step, double lambda, int committed_here, bool every_step);
+  // Each strategy's stages for one step or block (held_step.cpp, streamed_step.cpp,
+  // block_step.cpp). `t0`: the step's start, moved on by the time spent building lists.
+  PipelineStages held_stages(StepPlan& plan, StepWork& work);
+  // A compensated held step's plain updates of every tile into held_updated_, and their halos.
+  void held_plain_updates(StepPlan& plan, const StepWork& work);
+  PipelineStages streamed_stages(StepPlan& plan, StepWork& work);
+  PipelineStages block_stages(StepPlan& plan, StepWork& work, OutOfCoreReport& report, Clock::time_point& t0);
+  // Runs the stages (with the previous step's pending writes and commit woven in), then what
+  // every strategy does after: sample, scratch, collective writes, the step log.
+  void run_step_pipeline(StepPlan& plan, StepWork& work, PipelineStages stages);
+  // The step's state recorded and committed (or left pending); true when the run stops here.
+  bool commit_step(StepPlan& plan, StepWork& work, OutOfCoreReport& report, int& committed_here);
+  // The lagged step's items below `end` written and, once they all are, committed.
+  void write_lagged(StepWork& work, std::size_t end);
+  void finish_commit(StepWork& work);
+  // finish_commit, then the positions in row order: before anything but the next step reads them.
+  void finish_commit_timed(StepWork& work, OutOfCoreReport& report);
+  // Bytes of the slots in flight (for account()).
+  std::uint64_t step_slots_bytes(const StepWork& work) const;
+  std::uint64_t block_slots_bytes(const StepWork& work) const;
   void hold_positions();
   void load_held(const h5::Dataset& source);
   // Tile t's halo in a buffer laid out as held_, from the tiles holding its points.

@@ -1,5 +1,5 @@
 // The tiles' neighbourhoods (gathered with their halos, built, rebuilt) and the lambda sample.
-#include "tiled_run.hpp"
+#include "run.hpp"
 
 namespace pointfair::tiles::detail {
 
