@@ -26,8 +26,12 @@ std::string legend_number(double value) {
 }
 
 void draw_legend(Image& image, int x, int y, int width, const ColourLegend& legend) {
-  const int title_width = text_width(legend.title, kScale);
-  draw_text(image, x + std::max(0, (width - title_width) / 2), y + kPad, legend.title, kInk, kScale);
+  // The title at the font's double size, or at its own size (vertically centred in the same
+  // rows) when that does not fit.
+  const int title_scale = text_width(legend.title, kScale) <= width - 2 * kPad ? kScale : 1;
+  const int title_width = text_width(legend.title, title_scale);
+  const int title_y = y + kPad + (kText - 7 * title_scale) / 2;
+  draw_text(image, x + std::max(0, (width - title_width) / 2), title_y, legend.title, kInk, title_scale);
 
   const std::string low = legend_number(legend.low), high = legend_number(legend.high);
   const int bar_y = y + kPad + kText + kPad / 2;

@@ -142,7 +142,7 @@ Image render_cloud(const CloudView& cloud, const Eigen::AlignedBox2d& extent, co
 
   const Splats splats = splats_of(cloud, params);
   std::vector<double> depth(static_cast<std::size_t>(params.width) * static_cast<std::size_t>(params.height), -kInf);
-  const Vec3 light = Vec3(-0.4, 0.6, 1.0).normalized();  // in camera coordinates: upper left, front
+  const Vec3 light = Vec3(-0.35, 0.45, 1.0).normalized();  // in camera coordinates: upper left, front
   for (std::size_t i = 0; i < cloud.points.size(); ++i) {
     if (!cloud.points[i].allFinite()) continue;
     const Vec3 q = rotation * cloud.points[i];

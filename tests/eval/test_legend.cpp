@@ -69,6 +69,18 @@ TEST(Legend, BarRunsFromBlueToRedBetweenItsValues) {
   EXPECT_EQ(text_width("0.25", 2), 46);
 }
 
+// A title too long for the double-size font is drawn at the font's own size, inside the strip.
+TEST(Legend, LongTitleShrinksToFit) {
+  const std::string title = "mean curvature vector length (1/length)";  // 39 characters
+  ASSERT_GT(text_width(title, 2), 300);
+  ASSERT_LT(text_width(title, 1), 300 - 16);
+  Image image(340, legend_height(), kWhite);
+  draw_legend(image, 20, 0, 300, {title, 0.0, 1.0});
+  EXPECT_TRUE(has_ink(image, 20, 320, 0, 20));
+  EXPECT_FALSE(has_ink(image, 0, 20, 0, legend_height())) << "nothing left of the strip";
+  EXPECT_FALSE(has_ink(image, 320, 340, 0, legend_height())) << "nothing right of the strip";
+}
+
 // render_panels puts one legend under the panels, and colours drawn with the same range match
 // it: the low end of the map is blue.
 TEST(Legend, PanelsCarryTheLegendUnderneath) {

@@ -21,8 +21,8 @@ using Rgb = std::array<std::uint8_t, 3>;
 Rgb hue_colour(double value, double low, double high);
 
 /// Colours of all values. low and high are the `clip` and 1 - `clip` quantiles of the finite
-/// values: clip = 0 is the minimum and maximum (as in the paper); a small clip (e.g. 0.01) keeps a few
-/// outliers from squeezing every other point into one colour.
+/// values: clip = 0 is the minimum and maximum (as in the paper); a small clip (e.g. 0.01)
+/// keeps a few outliers from squeezing every other point into one colour.
 std::vector<Rgb> colour_by_scalar(std::span<const double> values, double clip = 0.0);
 
 }  // namespace pointfair

@@ -1,10 +1,11 @@
 #pragma once
 // Headless pictures of point clouds: orthographic camera presets, the points framed to fill the
 // panel, z-buffered splats sized per point (each point's own distance to its 8th nearest
-// neighbour) and oriented by its normal (a disc in the tangent plane, drawn as the ellipse it
-// projects to), Lambert shading with a little ambient light, colours given per point or one
-// uniform colour. Scalar colours come from pointfair/common/colour.hpp (blue low, red high) and
-// are explained by a legend (legend.hpp) under the panels.
+// neighbour, measured in its tangent plane) and oriented by its normal (a disc in the tangent
+// plane, drawn as the ellipse it projects to, with its own depth at every pixel), Lambert
+// shading with a little ambient light, colours given per point or one uniform colour. Scalar
+// colours come from pointfair/common/colour.hpp (blue low, red high) and are explained by a
+// legend (legend.hpp) under the panels.
 //
 // Deterministic: the same clouds and parameters give the same bytes, whatever the threads.
 #include <optional>
@@ -33,14 +34,15 @@ struct RenderParams {
   /// Empty border around the points' projected extent, a fraction of the panel's size on each
   /// side, in 0..0.4. 0 lets the outermost points touch the panel's edges.
   double margin = 0.04;
-  /// Splat radius as a multiple of each point's own distance to its 8th nearest neighbour
-  /// (capped at 3 times the median radius, so that a lone outlier stays a dot). About 0.5
-  /// closes a dense, evenly sampled surface; smaller values show the single points.
+  /// Splat radius as a multiple of each point's own distance to its 8th nearest neighbour in
+  /// its tangent plane (capped at 3 times the median radius, so that a lone outlier stays a
+  /// dot). About 0.5 closes an evenly spaced grid, 0.7 a randomly sampled surface (under 1% of
+  /// the silhouette open); smaller values show the single points.
   double splat_scale = 0.7;
   /// Lambert shading by the (unsigned) normal; false draws every point in its flat colour.
   bool shade = true;
   /// Share of the light that reaches a splat whatever its normal, in 0..1 (1 = flat colours).
-  double ambient = 0.3;
+  double ambient = 0.35;
   Rgb background = {255, 255, 255};
   /// Colour of points without colours (the paper's Figure 5 yellow).
   Rgb uniform = {235, 200, 40};
