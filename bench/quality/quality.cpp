@@ -111,8 +111,9 @@ struct Bench {
     render::RenderParams params;
     params.width = params.height = 360;
     const std::string file = name + ".png";
-    const render::ColourLegend legend{
-        by_laplacian ? "|A|, mean curvature vector (1/length)" : "max |principal curvature| (1/length)", low, high};
+    const render::ColourLegend legend{by_laplacian ? "mean curvature vector length (1/length)"
+                                                   : "max abs principal curvature (1/length)",
+                                      low, high};
     render::write_png(out / file, render::render_panels(views, labels, params, legend));
     return file;
   }

@@ -212,7 +212,7 @@ int run_demo(const Args& args) {
     render::RenderParams picture;
     picture.width = 480;
     picture.height = 480;
-    const render::ColourLegend legend{"max |principal curvature| (1/length)", low, high};
+    const render::ColourLegend legend{"max abs principal curvature (1/length)", low, high};
     render::write_png(dir / "octahedron.png", render::render_panels(views, labels, picture, legend));
   }
   io::write_file_atomically(dir / "summary.json",

@@ -135,8 +135,9 @@ int run_render(const Args& args) {
   for (std::size_t k = 0; k < tables.size(); ++k) views.push_back({tables[k].positions, colours[k], normals[k]});
   std::optional<render::ColourLegend> legend;
   if (colour == "kmax" || colour == "laplacian")
-    legend = render::ColourLegend{
-        colour == "kmax" ? "max |principal curvature| (1/length)" : "|A|, mean curvature vector (1/length)", low, high};
+    legend = render::ColourLegend{colour == "kmax" ? "max abs principal curvature (1/length)"
+                                                   : "mean curvature vector length (1/length)",
+                                  low, high};
   const render::Image image = render::render_panels(views, labels, params, legend);
   render::write_png(output_path, image);
   std::fprintf(stderr, "render: %zu panel%s, %dx%d -> %s\n", views.size(), views.size() == 1 ? "" : "s", image.width,
