@@ -111,7 +111,10 @@ struct Bench {
     render::RenderParams params;
     params.width = params.height = 360;
     const std::string file = name + ".png";
-    render::write_png(out / file, render::render_panels(views, labels, params));
+    const render::ColourLegend legend{by_laplacian ? "mean curvature vector length (1/length)"
+                                                   : "max abs principal curvature (1/length)",
+                                      low, high};
+    render::write_png(out / file, render::render_panels(views, labels, params, legend));
     return file;
   }
 };

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 
 namespace pointfair {
 
@@ -11,19 +10,17 @@ Rgb hue_colour(double value, double low, double high) {
   double t = high > low ? (value - low) / (high - low) : 0.0;
   if (!std::isfinite(t)) t = 0.0;
   t = std::clamp(t, 0.0, 1.0);
-  // Hue angle 0..1.5 pi, i.e. 0..270 degrees: red, yellow, green, cyan, blue, violet-blue.
-  const double h = t * 1.5 * std::numbers::pi / (std::numbers::pi / 3.0);  // in sextants, 0..4.5
-  const int sextant = std::min(5, static_cast<int>(h));
+  // Hue 240 degrees (blue) at t = 0 down to 0 (red) at t = 1, in sextants of 60 degrees:
+  // blue, cyan, green, yellow, red.
+  const double h = 4.0 * (1.0 - t);  // 0..4
+  const int sextant = std::min(3, static_cast<int>(h));
   const double f = h - sextant;
-  const double rise = f, fall = 1.0 - f;
   double r = 0, g = 0, b = 0;
   switch (sextant) {
-    case 0: r = 1; g = rise; b = 0; break;
-    case 1: r = fall; g = 1; b = 0; break;
-    case 2: r = 0; g = 1; b = rise; break;
-    case 3: r = 0; g = fall; b = 1; break;
-    case 4: r = rise; g = 0; b = 1; break;
-    default: r = 1; g = 0; b = fall; break;
+    case 0: r = 1; g = f; b = 0; break;        // red to yellow
+    case 1: r = 1 - f; g = 1; b = 0; break;    // yellow to green
+    case 2: r = 0; g = 1; b = f; break;        // green to cyan
+    default: r = 0; g = 1 - f; b = 1; break;   // cyan to blue
   }
   auto byte = [](double c) { return static_cast<std::uint8_t>(std::lround(c * 255.0)); };
   return {byte(r), byte(g), byte(b)};

@@ -475,6 +475,76 @@ TEST_F(CliTest, DemoRunsOnSmallOctahedron) {
   EXPECT_EQ(io::read_points(dir_ / "demo" / "octahedron_aniso.ply").size(), 258u);  // 4^4 + 2
 }
 
+// Width and height from a PNG's IHDR chunk (bytes 16..23).
+std::array<std::uint32_t, 2> png_size(const fs::path& file) {
+  const std::string bytes = slurp(file);
+  if (bytes.size() < 24 || bytes.compare(12, 4, "IHDR") != 0) return {0, 0};
+  auto be32 = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    for (std::size_t i = 0; i < 4; ++i) v = (v << 8) | static_cast<unsigned char>(bytes[at + i]);
+    return v;
+  };
+  return {be32(16), be32(20)};
+}
+
+// The demo's picture: three 480-pixel panels, their labels above (28 pixels) and the colour
+// legend under them (50 pixels).
+TEST_F(CliTest, DemoPictureHasPanelsAndALegend) {
+  ASSERT_EQ(run("demo --out " + (dir_ / "demo").string() + " --level 3 --steps 5 --quiet").exit_code, 0);
+  EXPECT_EQ(png_size(dir_ / "demo" / "octahedron.png"), (std::array<std::uint32_t, 2>{3 * 480, 28 + 480 + 50}));
+}
+
+// render: a legend under a scalar-coloured picture, none under a uniform one; the same input
+// gives the same bytes.
+TEST_F(CliTest, RenderDrawsALegendForScalarColours) {
+  const fs::path in = write_cloud("in.ply", 3000);
+  const fs::path a = dir_ / "a.png", b = dir_ / "b.png", plain = dir_ / "plain.png";
+  ASSERT_EQ(run("render " + in.string() + " " + a.string() + " --size 200").exit_code, 0);
+  ASSERT_EQ(run("render " + in.string() + " " + b.string() + " --size 200 --threads 1").exit_code, 0);
+  ASSERT_EQ(run("render " + in.string() + " " + plain.string() + " --size 200 --colour none").exit_code, 0);
+  EXPECT_EQ(png_size(a), (std::array<std::uint32_t, 2>{200, 250}));
+  EXPECT_EQ(png_size(plain), (std::array<std::uint32_t, 2>{200, 200}));
+  EXPECT_EQ(slurp(a), slurp(b));
+}
+
+// Colours by a scalar are blue where it is low and red where it is high: on a cube, kmax is
+// high at the edges and corners and low in the middle of the faces.
+TEST_F(CliTest, ColourByKmaxIsBlueLowRedHigh) {
+  io::PointTable t;
+  t.positions = sample_mesh(cube_mesh(), 6000, 2).points;
+  const fs::path in = dir_ / "cube.ply", out = dir_ / "coloured.ply";
+  io::write_points(in, t);
+  ASSERT_EQ(run("curvature " + in.string() + " " + out.string() + " --colour-by kmax --quiet").exit_code, 0);
+  const io::PointTable r = io::read_points(out);
+  const io::Attribute* red = r.find("red");
+  const io::Attribute* blue = r.find("blue");
+  ASSERT_TRUE(red && blue);
+  // Edges and faces are found from the cloud's own box.
+  Eigen::AlignedBox3d box;
+  for (const Vec3& p : r.positions) box.extend(p);
+  const double size = box.sizes().maxCoeff();
+  double red_at_edges = 0, blue_at_edges = 0, red_on_faces = 0, blue_on_faces = 0;
+  for (std::size_t i = 0; i < r.size(); ++i) {
+    const Vec3 p = r.positions[i];
+    // Distance to the box's boundary along each axis; two small ones: near an edge.
+    int near = 0, far = 0;
+    for (int c = 0; c < 3; ++c) {
+      const double d = std::min(p[c] - box.min()[c], box.max()[c] - p[c]);
+      if (d < 0.02 * size) ++near;
+      if (d > 0.25 * size) ++far;
+    }
+    if (near >= 2) {
+      red_at_edges += red->values[i];
+      blue_at_edges += blue->values[i];
+    } else if (far == 2) {
+      red_on_faces += red->values[i];
+      blue_on_faces += blue->values[i];
+    }
+  }
+  EXPECT_GT(red_at_edges, 1.2 * blue_at_edges) << "edges red";
+  EXPECT_GT(blue_on_faces, 2 * red_on_faces) << "faces blue, " << blue_on_faces << " vs " << red_on_faces;
+}
+
 TEST_F(CliTest, ThreadsGiveIdenticalOutput) {
   const fs::path in = write_cloud("in.ply", 3000);
   ASSERT_EQ(run("smooth " + in.string() + " " + (dir_ / "a.ply").string() + " --steps 4 --threads 1 --quiet").exit_code, 0);

@@ -1,4 +1,5 @@
 // pointfair demo: the paper's octahedron experiment (Figure 4) on a built-in input.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -59,26 +60,42 @@ CloudScore score(std::string name, std::span<const Vec3> cloud, std::span<const 
   return s;
 }
 
-io::PointTable coloured_table(std::span<const Vec3> positions, const Neighborhoods& neighborhoods,
-                              const SmoothParams& params, double lambda, const OutputOptions& output) {
+io::PointTable coloured_table(std::span<const Vec3> positions, const PointAttributes& attributes,
+                              const OutputOptions& output) {
   io::PointTable table;
   table.positions.assign(positions.begin(), positions.end());
   table.position_type = io::ScalarType::Float32;
-  add_result_columns(table, compute_attributes(positions, neighborhoods, params.flow, lambda), output, false);
+  add_result_columns(table, attributes, output, false);
   return table;
 }
 
-// The red/green/blue columns of a table as colours (white where it has none).
-std::vector<Rgb> table_colours(const io::PointTable& table) {
-  std::vector<Rgb> colours(table.size(), Rgb{255, 255, 255});
-  const io::Attribute* r = table.find("red");
-  const io::Attribute* g = table.find("green");
-  const io::Attribute* b = table.find("blue");
-  if (!r || !g || !b) return colours;
-  for (std::size_t i = 0; i < colours.size(); ++i)
-    colours[i] = {static_cast<std::uint8_t>(r->values[i]), static_cast<std::uint8_t>(g->values[i]),
-                  static_cast<std::uint8_t>(b->values[i])};
-  return colours;
+// One cloud of the picture: its points, normals and maximal |principal curvature|.
+struct PictureCloud {
+  std::vector<Vec3> points;
+  std::vector<Vec3> normals;
+  std::vector<double> kmax;
+};
+
+PictureCloud picture_cloud(std::span<const Vec3> positions, PointAttributes attributes) {
+  PictureCloud c;
+  c.points.assign(positions.begin(), positions.end());
+  c.kmax.resize(positions.size());
+  for (std::size_t i = 0; i < c.kmax.size(); ++i)
+    c.kmax[i] = std::max(std::abs(attributes.k1[i]), std::abs(attributes.k2[i]));
+  c.normals = std::move(attributes.normal);
+  return c;
+}
+
+// Value at the quantile q of all clouds' finite kmax.
+double kmax_quantile(std::span<const PictureCloud> clouds, double q) {
+  std::vector<double> all;
+  for (const auto& c : clouds)
+    for (const double v : c.kmax)
+      if (std::isfinite(v)) all.push_back(v);
+  if (all.empty()) return 0.0;
+  const auto k = static_cast<std::size_t>(q * static_cast<double>(all.size() - 1));
+  std::nth_element(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(k), all.end());
+  return all[k];
 }
 
 }  // namespace
@@ -126,13 +143,14 @@ int run_demo(const Args& args) {
   std::filesystem::create_directories(out_dir);
   const std::filesystem::path dir(out_dir);
   std::vector<CloudScore> scores;
-  std::vector<io::PointTable> tables;  // noisy, anisotropic, isotropic: for the picture
+  std::vector<PictureCloud> pictured;  // noisy, anisotropic, isotropic
   scores.push_back(score("noisy input", noisy, clean, band, diagonal));
   {
     const Neighborhoods nb = build_neighborhoods(noisy, resolve_k(params, noisy).neighbors);
     const double lambda = resolve_lambda(noisy, nb, params.flow);
-    tables.push_back(coloured_table(noisy, nb, params, lambda, output));
-    write_output(dir / "octahedron_noisy.ply", tables.back(), output);
+    PointAttributes a = compute_attributes(noisy, nb, params.flow, lambda);
+    write_output(dir / "octahedron_noisy.ply", coloured_table(noisy, a, output), output);
+    pictured.push_back(picture_cloud(noisy, std::move(a)));
   }
 
   JsonObject runs;
@@ -153,8 +171,9 @@ int run_demo(const Args& args) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     progress.finish();
     const std::string file = "octahedron_" + to_string(flow) + ".ply";
-    tables.push_back(coloured_table(positions, report.neighborhoods, run, report.lambda, output));
-    write_output(dir / file, tables.back(), output);
+    PointAttributes a = compute_attributes(positions, report.neighborhoods, run.flow, report.lambda);
+    write_output(dir / file, coloured_table(positions, a, output), output);
+    pictured.push_back(picture_cloud(positions, std::move(a)));
     CloudScore s = score(to_string(flow) + "tropic, " + std::to_string(report.steps) + " steps",
                          positions, clean, band, diagonal);
     s.seconds = seconds;
@@ -179,17 +198,22 @@ int run_demo(const Args& args) {
   JsonObject summary;
   summary.add("command", "demo").add("version", version()).add("threads", thread_count())
       .add("input", input).add("runs", runs);
-  // The paper's Figure 4 as one picture: noisy input, anisotropic and isotropic result.
+  // The paper's Figure 4 as one picture: noisy input, anisotropic and isotropic result, with
+  // one colour range (1st to 99th percentile of all three) so that the panels compare.
   {
-    std::vector<std::vector<Rgb>> colours;
+    const double low = kmax_quantile(pictured, 0.01), high = kmax_quantile(pictured, 0.99);
+    std::vector<std::vector<Rgb>> colours(pictured.size());
     std::vector<render::CloudView> views;
-    for (const auto& t : tables) colours.push_back(table_colours(t));
-    for (std::size_t i = 0; i < tables.size(); ++i) views.push_back({tables[i].positions, colours[i], {}});
+    for (std::size_t i = 0; i < pictured.size(); ++i) {
+      for (const double v : pictured[i].kmax) colours[i].push_back(hue_colour(v, low, high));
+      views.push_back({pictured[i].points, colours[i], pictured[i].normals});
+    }
     const std::vector<std::string> labels = {"noisy input", "anisotropic", "isotropic"};
     render::RenderParams picture;
     picture.width = 480;
     picture.height = 480;
-    render::write_png(dir / "octahedron.png", render::render_panels(views, labels, picture));
+    const render::ColourLegend legend{"max abs principal curvature (1/length)", low, high};
+    render::write_png(dir / "octahedron.png", render::render_panels(views, labels, picture, legend));
   }
   io::write_file_atomically(dir / "summary.json",
                             [&](io::FileSink& sink) { sink.write(summary.str() + "\n"); });
@@ -203,8 +227,9 @@ int run_demo(const Args& args) {
   for (const auto& s : scores)
     std::printf("  %-26s %8.3f %11.3f %9.3f %9.2f %14.3g %12.4g\n", s.name.c_str(), 1e3 * s.rms_all,
                 1e3 * s.rms_edges, 1e3 * s.rms_faces, s.seconds, s.rate, s.moved.max);
-  std::printf("\nwrote %s/octahedron_{noisy,aniso,iso}.ply (coloured by maximal principal curvature),\n"
-              "      %s/octahedron.png (the three side by side) and %s/summary.json\n",
+  std::printf("\nwrote %s/octahedron_{noisy,aniso,iso}.ply (coloured by maximal principal curvature,\n"
+              "      blue low to red high), %s/octahedron.png (the three side by side, one colour\n"
+              "      range) and %s/summary.json\n",
               out_dir.c_str(), out_dir.c_str(), out_dir.c_str());
   if (output.json) std::cout << summary.str() << std::endl;
   return 0;

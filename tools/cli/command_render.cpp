@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <sstream>
 
 #include "commands.hpp"
@@ -39,11 +40,12 @@ int run_render(const Args& args) {
   int threads = 0;
   ArgumentParser parser(
       "pointfair render",
-      "Draws point clouds into a PNG without a display: orthographic camera, z-buffered round "
-      "splats, Lambert shading from the unsigned PCA normal, colour by maximal |principal "
-      "curvature| or by |A| (hue 0 to 1.5 pi over the range, as in the paper), by the file's "
-      "red/green/blue, or one yellow. Several inputs become side-by-side panels with one camera "
-      "and one colour range.");
+      "Draws point clouds into a PNG without a display: orthographic camera, the points framed "
+      "to fill the panel, z-buffered splats sized by each point's own spacing and lying in its "
+      "tangent plane, Lambert shading from the unsigned normal, colour by maximal |principal "
+      "curvature| or by |A| (blue low to red high, as CloudCompare, with a legend of the range "
+      "and its unit), by the file's red/green/blue, or one yellow. Several inputs become "
+      "side-by-side panels with one camera, one framing and one colour range.");
   parser.positional("IN", "Point file, or several separated by commas (panels).", &input);
   parser.positional("OUT", "PNG file to write.", &output_path);
   parser.value("panels", "A,B,...", "More point files, drawn as panels after IN.",
@@ -52,7 +54,8 @@ int run_render(const Args& args) {
   parser.value("colour", "kmax|laplacian|file|none",
                "Colour source. Default kmax (the method's curvature with the method options below).",
                [&](std::string_view v) { colour = std::string(v); });
-  parser.value("range", "LOW,HIGH", "Scalar range of the hue map. Default: 1st to 99th percentile over all panels.",
+  parser.value("range", "LOW,HIGH", "Scalar range of the colour map (blue at LOW, red at HIGH). Default: 1st to 99th "
+               "percentile over all panels.",
                [&](std::string_view v) { range_text = std::string(v); });
   parser.value("view", "iso|front|side|top|back", "Camera preset. Default iso.", [&](std::string_view v) { view = std::string(v); });
   parser.value("yaw", "DEGREES", "Turn the camera about the screen's vertical axis. Default 0.",
@@ -60,7 +63,9 @@ int run_render(const Args& args) {
   parser.value("size", "PIXELS", "Width and height of each panel. Default 640.", [&](std::string_view v) {
     params.width = params.height = parse_int(v, "--size");
   });
-  parser.value("splat", "F", "Splat radius, times the median distance to the 8th neighbour. Default 0.45.",
+  parser.value("splat", "F",
+               "Splat radius, times each point's distance to its 8th neighbour in its tangent plane. "
+               "Default 0.7 (closes a dense surface).",
                [&](std::string_view v) { params.splat_scale = parse_double(v, "--splat"); });
   parser.flag("flat", "No shading.", [&] { params.shade = false; });
   parser.value("threads", "N", "Worker threads (0 = all cores). Default 0.",
@@ -81,19 +86,23 @@ int run_render(const Args& args) {
 
   std::vector<io::PointTable> tables;
   std::vector<std::vector<double>> scalars;
+  std::vector<std::vector<Vec3>> normals;  // the method's, when it ran; else render estimates them
   for (const auto& f : files) {
     tables.push_back(read_input(f, true));
     std::vector<double> s;
+    std::vector<Vec3> n;
     if ((colour == "kmax" || colour == "laplacian") && tables.back().size() > 3) {
       const auto& points = tables.back().positions;
       const Neighborhoods nb = build_neighborhoods(points, resolve_k(method, points).neighbors);
       const double lambda = resolve_lambda(points, nb, method.flow);
-      const PointAttributes a = compute_attributes(points, nb, method.flow, lambda);
+      PointAttributes a = compute_attributes(points, nb, method.flow, lambda);
       s.resize(points.size());
       for (std::size_t i = 0; i < s.size(); ++i)
         s[i] = colour == "laplacian" ? a.laplacian_norm[i] : std::max(std::abs(a.k1[i]), std::abs(a.k2[i]));
+      n = std::move(a.normal);
     }
     scalars.push_back(std::move(s));
+    normals.push_back(std::move(n));
   }
   double low = 0, high = 0;
   if (!range_text.empty()) {
@@ -123,8 +132,13 @@ int run_render(const Args& args) {
     }
   }
   std::vector<render::CloudView> views;
-  for (std::size_t k = 0; k < tables.size(); ++k) views.push_back({tables[k].positions, colours[k], {}});
-  const render::Image image = render::render_panels(views, labels, params);
+  for (std::size_t k = 0; k < tables.size(); ++k) views.push_back({tables[k].positions, colours[k], normals[k]});
+  std::optional<render::ColourLegend> legend;
+  if (colour == "kmax" || colour == "laplacian")
+    legend = render::ColourLegend{colour == "kmax" ? "max abs principal curvature (1/length)"
+                                                   : "mean curvature vector length (1/length)",
+                                  low, high};
+  const render::Image image = render::render_panels(views, labels, params, legend);
   render::write_png(output_path, image);
   std::fprintf(stderr, "render: %zu panel%s, %dx%d -> %s\n", views.size(), views.size() == 1 ? "" : "s", image.width,
                image.height, output_path.c_str());

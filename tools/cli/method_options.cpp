@@ -279,7 +279,7 @@ void add_finish_options(ArgumentParser& p, SmoothParams& s) {
 void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attributes_flag) {
   p.value("colour-by", "kmax|laplacian|none",
           "Colour points (red/green/blue) by the maximal principal curvature max(|k1|, |k2|) or "
-          "by |A_i|, hue 0 (minimum) to 1.5 pi (maximum), replacing the input's colours; 'none' "
+          "by |A_i|, blue (minimum) to red (maximum) as CloudCompare, replacing the input's colours; 'none' "
           "keeps the input's colours. Default none (curvature: kmax for a cloud without colours of "
           "its own; demo: kmax).",
           [&o](std::string_view v) {

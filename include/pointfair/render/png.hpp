@@ -39,4 +39,8 @@ void blit(Image& dst, const Image& src, int x, int y);
 /// `scale`, top-left corner at (x, y).
 void draw_text(Image& image, int x, int y, std::string_view text, Rgb colour, int scale = 2);
 
+/// Width in pixels of `text` drawn by draw_text at `scale` (6 columns a character, less the
+/// last one's spacing); 0 for empty text.
+int text_width(std::string_view text, int scale = 2);
+
 }  // namespace pointfair::render
