@@ -203,6 +203,63 @@ TEST_F(SmoothSelection, OtherClassesComeBackByteForByteAndTheSelectedMoveAsIfAlo
   }
 }
 
+// A PLY with normals and a CSV with a header, each with a class column: out of core writes
+// what in core writes (normals of the selected points refreshed, the others' kept), and with
+// the automatic k, eps and lambda the selected points move as if alone.
+TEST_F(SmoothSelection, PlyWithNormalsAndCsvOutOfCoreMatchInCore) {
+  io::PointTable t = scene(kOutOfCorePoints);
+  t.quantization.reset();
+  t.las.reset();
+  const std::vector<double> classes = t.find("classification")->values;
+  t.attributes.clear();
+  t.set("nx", io::ScalarType::Float32, std::vector<double>(t.size(), 0.0));
+  t.set("ny", io::ScalarType::Float32, std::vector<double>(t.size(), 0.0));
+  t.set("nz", io::ScalarType::Float32, std::vector<double>(t.size(), -1.0));
+  t.set("classification", io::ScalarType::UInt8, classes);
+  for (const char* name : {"scene.ply", "scene.csv"}) {
+    SCOPED_TRACE(name);
+    const fs::path in = write(name, t);
+    const std::string ext = fs::path(name).extension().string();
+    const fs::path core = dir_ / ("core" + ext), tiled = dir_ / ("tiled" + ext);
+    const RunResult r = run("smooth " + in.string() + " " + core.string() + " --steps 2 --quiet --threads 1 --classes 2");
+    ASSERT_EQ(r.exit_code, 0) << r.err;
+    const RunResult o = run("smooth " + in.string() + " " + tiled.string() +
+                            " --steps 2 --quiet --classes 2 --memory-budget 8M --json");
+    ASSERT_EQ(o.exit_code, 0) << o.err;
+    EXPECT_GT(json_number(o.out, "tiles"), 1.0) << o.out;
+    EXPECT_TRUE(slurp(core) == slurp(tiled)) << "in-core and out-of-core outputs differ";
+    const io::PointTable before = io::read_points(in), after = io::read_points(tiled);
+    ASSERT_EQ(after.size(), before.size());
+    std::size_t turned = 0;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      const bool ground = classes[i] == kGround;
+      for (const char* n : {"nx", "ny", "nz"}) {
+        const double a = after.find(n)->values[i], b = before.find(n)->values[i];
+        if (!ground) {
+          ASSERT_EQ(a, b) << n << " of point " << i;
+        } else {
+          turned += a != b ? 1 : 0;
+        }
+      }
+      if (!ground) {
+        ASSERT_EQ(after.positions[i], before.positions[i]) << "point " << i;
+      }
+    }
+    EXPECT_GT(turned, 0u);
+    if (ext != ".ply") continue;
+    // The automatic k, eps and lambda (no --k) are those of the ground alone.
+    const fs::path alone = write("alone.ply", only_class(t, kGround)), alone_out = dir_ / "alone_out.ply";
+    ASSERT_EQ(run("smooth " + alone.string() + " " + alone_out.string() + " --steps 2 --quiet").exit_code, 0);
+    const io::PointTable expected = io::read_points(alone_out);
+    std::size_t j = 0;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      if (classes[i] == kGround) {
+        ASSERT_EQ(after.positions[i], expected.positions[j++]) << "point " << i;
+      }
+    }
+  }
+}
+
 TEST_F(SmoothSelection, LastReturnsSelectTheGroundHere) {
   const io::PointTable t = scene(kInCorePoints);
   const fs::path in = write("scene.las", t), by_class = dir_ / "class.las", by_return = dir_ / "return.las";
