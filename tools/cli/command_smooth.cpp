@@ -85,7 +85,7 @@ int run_smooth(const Args& args) {
     }
     if (!output.quiet)
       std::fprintf(stderr, "smooth: %zu of %zu points selected%s\n", table.size(), whole.size(),
-                   (table.size() == 0) ? ": none to smooth, the file is written back as it was" : "");
+                   table.size() == 0 ? ": none to smooth, the file is written back as it was" : "");
   }
   const double seconds_read = seconds_since(t_start);
   const std::vector<Vec3> before = table.positions;
@@ -115,7 +115,7 @@ int run_smooth(const Args& args) {
   throw_if_interrupted();
   SmoothReport report;
   // A selection of no point: nothing to smooth, the file goes back as it was.
-  const bool run = !(selecting && (table.size() == 0));
+  const bool run = !(selecting && table.size() == 0);
   try {
     const StopOnInterrupt stop_on_interrupt;  // a signal ends the current step or fit within a second
     if (run) report = smooth(table.positions, params, options);
