@@ -98,7 +98,10 @@ int run_smooth(const Args& args) {
   if (auto_stop)
     step_label = "smooth: step (stops once the noise measure lambda falls to " + format_number(params.stop_lambda_ratio) +
                  " of its start or levels off)";
-  if (!output.quiet) std::fprintf(stderr, "smooth: %zu points read; neighbourhoods...\n", table.size());
+  // A selection of no point: nothing to smooth, the file goes back as it was.
+  const bool run = !(selecting && table.size() == 0);
+  if (!output.quiet && run)
+    std::fprintf(stderr, "smooth: %zu %spoints read; neighbourhoods...\n", table.size(), selecting ? "selected " : "");
   Progress steps_progress(step_label, !output.quiet);
   Progress finish_progress("smooth: finish (quadric fits, points x passes)", !output.quiet);
   SmoothOptions options;
@@ -114,8 +117,6 @@ int run_smooth(const Args& args) {
   };
   throw_if_interrupted();
   SmoothReport report;
-  // A selection of no point: nothing to smooth, the file goes back as it was.
-  const bool run = !(selecting && table.size() == 0);
   try {
     const StopOnInterrupt stop_on_interrupt;  // a signal ends the current step or fit within a second
     if (run) report = smooth(table.positions, params, options);
@@ -152,7 +153,7 @@ int run_smooth(const Args& args) {
   const double rate = report.seconds_steps > 0
                           ? static_cast<double>(table.size()) * report.steps / report.seconds_steps
                           : 0.0;
-  if (!output.quiet) {
+  if (!output.quiet && run) {
     std::fprintf(stderr,
                  "smooth: %zu points, %d %s steps (k %d, tau %g, lambda %.4g, eps %.4g) in %.2f s "
                  "(%.3g point-steps/s); displacement mean %.4g, max %.4g (%.3g%% of the diagonal); "

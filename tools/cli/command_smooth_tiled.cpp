@@ -345,12 +345,12 @@ int run_smooth_out_of_core(const Args& args) {
   const double rate = report.seconds_steps > 0
                           ? static_cast<double>(report.points) * steps_here / report.seconds_steps
                           : 0.0;
-  if (!output.quiet)
+  if (!output.quiet && !nothing_selected)
     std::fprintf(stderr,
-                 "smooth: %llu points in %zu tiles, %d steps (%d resumed) out of core (k %d, lambda %.4g, eps %.4g) "
+                 "smooth: %llu %spoints in %zu tiles, %d steps (%d resumed) out of core (k %d, lambda %.4g, eps %.4g) "
                  "in %.2f s (%.3g point-steps/s); working memory %.1f MiB of %.1f MiB; %zu degenerate "
                  "points -> %s\n",
-                 static_cast<unsigned long long>(report.points), report.tiles, report.steps,
+                 static_cast<unsigned long long>(report.points), selecting ? "selected " : "", report.tiles, report.steps,
                  report.resumed_from, report.k, report.lambda, report.eps, seconds_total, rate,
                  static_cast<double>(report.peak_accounted_bytes) / (1 << 20),
                  static_cast<double>(ooc.memory_budget) / (1 << 20), report.degenerate, output_path.c_str());
