@@ -315,6 +315,20 @@ TEST_F(SmoothSelection, PlyWithAClassPropertyIsSelectedByIt) {
   EXPECT_EQ(after.attributes[0].values, before.attributes[0].values);
 }
 
+// The container of an interrupted run holds the points its selection kept: a --resume with
+// another selection (here: a run of every point, resumed with --classes) is refused.
+TEST_F(SmoothSelection, AResumeWithAnotherSelectionIsRefused) {
+  const fs::path in = write("scene.las", scene(kOutOfCorePoints)), out = dir_ / "out.las";
+  const fs::path work = dir_ / ".out.las.pointfair-run";
+  fs::create_directories(work);
+  ASSERT_EQ(run("import " + in.string() + " " + (work / "input.h5").string() + " --quiet").exit_code, 0);
+  const RunResult r = run("smooth " + in.string() + " " + out.string() + " --classes 2 --memory-budget 8M --resume");
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("--classes or --returns"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::exists(work / "input.h5"));  // an interrupted run's folder is left alone
+  EXPECT_FALSE(fs::exists(out));
+}
+
 TEST_F(SmoothSelection, BadListsAndFilesWithoutClassesFailCleanly) {
   const fs::path in = write("scene.las", scene(300)), out = dir_ / "out.las";
   for (const char* list : {"2,x", "256", "-1", "6-2", "", "2,,6", "2-"}) {
