@@ -64,6 +64,15 @@ void refresh_normals(PointTable& table, std::span<const Vec3> normals) {
   }
 }
 
+const Attribute* classification_column(const PointTable& table) {
+  if (table.text && !table.text->header) return nullptr;
+  for (const std::string_view name : {"classification", "class"}) {
+    const std::size_t a = index_of(table, name);
+    if (a != static_cast<std::size_t>(-1)) return &table.attributes[a];
+  }
+  return nullptr;
+}
+
 bool has_colour(const PointTable& table) {
   constexpr std::size_t kNone = static_cast<std::size_t>(-1);
   const auto all = [&](std::string_view r, std::string_view g, std::string_view b) {

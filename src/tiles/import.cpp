@@ -356,17 +356,22 @@ namespace {
 
 // A point file, or a container (its input positions and attributes in its points' original
 // order): a container imported again gets the tiles of another budget.
-std::unique_ptr<io::PointChunkReader> open_input(const std::filesystem::path& input, const io::ReadOptions& read = {}) {
+// With a selection, only the points it keeps.
+std::unique_ptr<io::PointChunkReader> open_input(const std::filesystem::path& input, const io::PointSelection& select,
+                                                 const io::ReadOptions& read = {}) {
   std::string e = input.extension().string();
   for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (e == ".h5" || e == ".hdf5") return std::make_unique<ContainerChunkReader>(input, ContainerReaderOptions{.result_positions = false});
-  return io::open_point_reader(input, read);
+  std::unique_ptr<io::PointChunkReader> reader;
+  if (e == ".h5" || e == ".hdf5") reader = std::make_unique<ContainerChunkReader>(input, ContainerReaderOptions{.result_positions = false});
+  else reader = io::open_point_reader(input, read);
+  if (select.all()) return reader;
+  return io::open_selected_reader(std::move(reader), select);
 }
 
 }  // namespace
 
 std::unique_ptr<io::PointChunkReader> Import::open_share(const io::ReadOptions& read) const {
-  auto reader = open_input(input_, read);
+  auto reader = open_input(input_, options_.select, read);
   if (first_ > 0 && reader->skip(first_) != first_) changed(input_);
   return reader;
 }
@@ -384,7 +389,7 @@ void Import::count_and_bounds() {
   // Without a declared count (text), rank 0 reads everything and the others nothing.
   std::optional<std::uint64_t> declared;
   {
-    const auto probe = open_input(input_);  // warnings come from the share's reader
+    const auto probe = open_input(input_, options_.select);  // warnings come from the share's reader
     schema_ = probe->schema();
     declared = probe->count();
   }

@@ -44,6 +44,19 @@ TEST(AttributeRoles, RefreshedNormalsKeepTheOldOrientationAndTypes) {
   EXPECT_EQ(table.find("nz")->type, ScalarType::Float32);
 }
 
+TEST(AttributeRoles, ClassificationIsClassificationOrClassInAnyCase) {
+  PointTable table;
+  table.set("classes", ScalarType::UInt8, {});
+  EXPECT_EQ(classification_column(table), nullptr);
+  table.set("Class", ScalarType::UInt8, {});
+  ASSERT_NE(classification_column(table), nullptr);
+  EXPECT_EQ(classification_column(table)->name, "Class");
+  table.set("CLASSIFICATION", ScalarType::UInt8, {});
+  EXPECT_EQ(classification_column(table)->name, "CLASSIFICATION");
+  table.text = TextLayout{};  // no header line: the names are guesses
+  EXPECT_EQ(classification_column(table), nullptr);
+}
+
 TEST(AttributeRoles, ColourIsRedGreenBlueOrRGB) {
   PointTable table;
   EXPECT_FALSE(has_colour(table));

@@ -132,6 +132,30 @@ TEST_F(ImportTest, LasInputKeepsItsGridThroughImportAndExport) {
   EXPECT_EQ(back.las->point_format, input.las->point_format);
 }
 
+TEST_F(ImportTest, ASelectionImportsItsPointsOnlyCountedInInputOrder) {
+  io::PointTable cloud = test::noisy_cube(900, 41);
+  std::vector<double> classes(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) classes[i] = i % 3 == 0 ? 6.0 : 2.0;
+  cloud.set("classification", io::ScalarType::UInt8, classes);
+  const io::PointTable input = write_cloud("in.las", cloud);
+  StreamImportOptions options = streamed({.max_tile_points = 100}, 64);
+  options.select.classes.set(6);
+  const StreamImportReport report = import_points(path("in.las"), path("sel.h5"), options);
+  EXPECT_EQ(report.points, 300u);
+  // The container is the import of a file holding the class-6 points alone.
+  io::PointTable only = input;
+  only.positions.clear();
+  for (auto& a : only.attributes) a.values.clear();
+  for (std::size_t i = 0; i < input.size(); i += 3) {
+    only.positions.push_back(input.positions[i]);
+    for (std::size_t a = 0; a < input.attributes.size(); ++a) only.attributes[a].values.push_back(input.attributes[a].values[i]);
+  }
+  expect_well_formed(path("sel.h5"), only, 100);
+  options.select.classes.reset();
+  options.select.classes.set(9);  // no such point: an empty container
+  EXPECT_EQ(import_points(path("in.las"), path("none.h5"), options).points, 0u);
+}
+
 TEST_F(ImportTest, ACellDenserThanATileIsCutInInputOrder) {
   // 3000 copies of one point and a sparse rest: no grid cell can separate the copies.
   io::PointTable cloud = test::noisy_cube(600, 33);

@@ -10,10 +10,12 @@
 #include "number_text.hpp"
 #include "las_options.hpp"
 #include "run_support.hpp"
+#include "selection_options.hpp"
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/attribute_roles.hpp"
+#include "pointfair/io/point_selection.hpp"
 
 namespace pointfair::cli {
 namespace {
@@ -46,11 +48,14 @@ int run_smooth(const Args& args) {
                "Build the neighbourhoods from this cloud (same points, same order) instead of the "
                "input: the paper's noise-free neighbourhoods.",
                [&](std::string_view v) { reference = std::string(v); });
+  SelectionOptions select;
+  add_selection_options(parser, select);
   add_output_options(parser, output, true);
   add_las_options(parser, output.las);
   if (!parser.parse(args)) return 0;
   require_las_output(output.las, output_path);
   params.validate();
+  require_selection_compatible(select, output.attributes, output.colour_by != ColourBy::None);
   set_thread_count(output.threads);
   // A named pipe or a device at OUT is refused before any work, not after it.
   io::require_output_path(output_path);
@@ -66,6 +71,25 @@ int run_smooth(const Args& args) {
                        " has " + std::to_string(table.size()) +
                        " (--neighbors-from needs the input's points in the same order)");
   }
+  // With --classes or --returns the run sees only the selected points (`table` holds them);
+  // the others stay in `whole` as they were read, and the moved points go back into it.
+  io::PointTable whole;
+  std::vector<std::size_t> rows;
+  const bool selecting = !select.selection.all();
+  if (selecting) {
+    rows = io::selected_rows(table, select.selection, input);
+    whole = std::move(table);
+    table = io::select_rows(whole, rows);
+    if (!reference_positions.empty()) {
+      std::vector<Vec3> picked;
+      picked.reserve(rows.size());
+      for (const std::size_t i : rows) picked.push_back(reference_positions[i]);
+      reference_positions = std::move(picked);
+    }
+    if (!output.quiet)
+      std::fprintf(stderr, "smooth: %zu of %zu points selected%s\n", table.size(), whole.size(),
+                   table.size() == 0 ? ": none to smooth, the file is written back as it was" : "");
+  }
   const double seconds_read = seconds_since(t_start);
   const std::vector<Vec3> before = table.positions;
 
@@ -77,7 +101,10 @@ int run_smooth(const Args& args) {
   if (auto_stop)
     step_label = "smooth: step (stops once the noise measure lambda falls to " + format_number(params.stop_lambda_ratio) +
                  " of its start or levels off)";
-  if (!output.quiet) std::fprintf(stderr, "smooth: %zu points read; neighbourhoods...\n", table.size());
+  // A selection of no point: nothing to smooth, the file goes back as it was.
+  const bool run = !(selecting && table.size() == 0);
+  if (!output.quiet && run)
+    std::fprintf(stderr, "smooth: %zu %spoints read; neighbourhoods...\n", table.size(), selecting ? "selected " : "");
   Progress steps_progress(step_label, !output.quiet);
   Progress finish_progress("smooth: finish (quadric fits, points x passes)", !output.quiet);
   SmoothOptions options;
@@ -95,7 +122,7 @@ int run_smooth(const Args& args) {
   SmoothReport report;
   try {
     const StopOnInterrupt stop_on_interrupt;  // a signal ends the current step or fit within a second
-    report = smooth(table.positions, params, options);
+    if (run) report = smooth(table.positions, params, options);
   } catch (const Stopped&) {
     throw_if_interrupted();
     throw;
@@ -107,7 +134,7 @@ int run_smooth(const Args& args) {
   const bool need_attributes =
       output.attributes || output.colour_by != ColourBy::None || !io::normal_columns(table).empty();
   std::size_t degenerate_final = report.degenerate;
-  if (need_attributes) {
+  if (need_attributes && run) {
     throw_if_interrupted();
     const PointAttributes attributes =
         compute_attributes(table.positions, report.neighborhoods, params.flow, report.lambda);
@@ -118,15 +145,18 @@ int run_smooth(const Args& args) {
   throw_if_interrupted();
   if (!output.quiet) std::fprintf(stderr, "smooth: writing %s\n", output_path.c_str());
   t0 = std::chrono::steady_clock::now();
-  write_output(output_path, table, output, input);
+  if (selecting) io::splice_rows(whole, rows, table);
+  write_output(output_path, selecting ? whole : table, output, input);
   const double seconds_write = seconds_since(t0);
   const double seconds_total = seconds_since(t_start);
 
   const DisplacementStats moved = displacement_stats(before, table.positions);
+  std::size_t moved_points = 0;
+  for (std::size_t i = 0; i < before.size(); ++i) moved_points += before[i] != table.positions[i] ? 1 : 0;
   const double rate = report.seconds_steps > 0
                           ? static_cast<double>(table.size()) * report.steps / report.seconds_steps
                           : 0.0;
-  if (!output.quiet) {
+  if (!output.quiet && run) {
     std::fprintf(stderr,
                  "smooth: %zu points, %d %s steps (k %d, tau %g, lambda %.4g, eps %.4g) in %.2f s "
                  "(%.3g point-steps/s); displacement mean %.4g, max %.4g (%.3g%% of the diagonal); "
@@ -143,11 +173,12 @@ int run_smooth(const Args& args) {
         .add("write", seconds_write).add("total", seconds_total);
     JsonObject j;
     j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
-    j.add("points", table.size()).add("steps", report.steps).add("rebuilds", report.rebuilds);
+    j.add("points", selecting ? whole.size() : table.size()).add("steps", report.steps).add("rebuilds", report.rebuilds);
     j.add("stop_reason", std::string(to_string(report.stop_reason)));
     j.add("threads", thread_count());
     j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
     j.add("neighbors_from", reference);
+    if (selecting) j.add("selection", selection_json(select, table.size(), moved_points));
     j.add("quadric_finish", finish_json(params));
     j.add("placement", report.placed_along_normal ? "normal" : "free");
     j.add("seconds", seconds).add("point_steps_per_second", rate);

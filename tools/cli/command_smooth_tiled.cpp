@@ -14,6 +14,7 @@
 #include "progress.hpp"
 #include "las_options.hpp"
 #include "run_support.hpp"
+#include "selection_options.hpp"
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/common/version.hpp"
@@ -148,15 +149,24 @@ int run_smooth_out_of_core(const Args& args) {
               [&] { ooc.step_blocks = false; });
   parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters).",
               [&] { ooc.resume = true; });
+  SelectionOptions select;
+  add_selection_options(parser, select);
   add_output_options(parser, output, true);
   add_las_options(parser, output.las);
   if (!parser.parse(args)) return 0;
   require_las_output(output.las, output_path);
   params.validate();
+  require_selection_compatible(select, output.attributes, output.colour_by != ColourBy::None);
   set_thread_count(output.threads);
   const auto t_start = std::chrono::steady_clock::now();
 
   const bool container_in = is_container_path(input), container_out = is_container_path(output_path);
+  // The run's container holds the selected points only; the export walks the point file
+  // and puts them back among the others.
+  const bool selecting = !select.selection.all();
+  if (selecting && (container_in || container_out))
+    throw UsageError(std::string(select.classes.empty() ? "--returns" : "--classes") +
+                     " takes a point file in and out (a container holds only the points a run smooths)");
   io::require_output_path(output_path);
   fs::path run_input = input;
   fs::path imported;
@@ -213,14 +223,17 @@ int run_smooth_out_of_core(const Args& args) {
   } guard{work, work_existed};
   if (!container_in || retile) {
     imported = work / "input.h5";
-    // What the run continues must be this input: its bytes, not only its size.
-    const std::string digest = io::file_digest(input);
+    // What the run continues must be this input: its bytes, not only its size (and the same
+    // selection of its points).
+    std::string digest = io::file_digest(input);
+    if (selecting) digest += " classes " + select.classes + " returns " + select.returns;
     if (ooc.resume && fs::exists(imported)) {
       const auto f = tiles::h5::File::open(imported, false);
       if (!f.has_attribute("/", "source_digest") || f.string_attribute("/", "source_digest") != digest)
         throw io::IoError(input + ": the interrupted run in " + work.string() +
-                          " was started from another input (its content differs): give that input, or remove "
-                          "the folder to start again");
+                          " was started from another input (its content differs" +
+                          (selecting ? std::string(", or its --classes or --returns") : std::string()) +
+                          "): give that input, or remove the folder to start again");
     } else {
       tiles::StreamImportOptions import;
       import.container.tiling.max_tile_points = tile_points;
@@ -233,6 +246,7 @@ int run_smooth_out_of_core(const Args& args) {
         import.container.source_size = static_cast<std::uint64_t>(f.int_attribute("/", "source_size_bytes"));
       }
       import.container.source_digest = digest;
+      import.select = select.selection;
       // The import streams the file within the budget (at least its minimum of 16 MiB).
       import.memory_budget = std::max(ooc.memory_budget, kMinImportBudget);
       import.read.on_warning = [quiet = output.quiet](const std::string& message) {
@@ -242,6 +256,15 @@ int run_smooth_out_of_core(const Args& args) {
       tiles::import_points(input, imported, import);
     }
     run_input = imported;
+  }
+  // A selection of no point: nothing to smooth, the file is written back as it was.
+  bool nothing_selected = false;
+  if (selecting) {
+    const auto f = tiles::h5::File::open(imported, false);
+    nothing_selected = tiles::point_count(f) == 0;
+    if (nothing_selected && !output.quiet)
+      std::fprintf(stderr, "smooth: no point of %s selected: nothing to smooth, the file is written back as it was\n",
+                   input.c_str());
   }
   (void)budget_given;
   const fs::path run_output = container_out ? fs::path(output_path) : work / "run.h5";
@@ -272,7 +295,7 @@ int run_smooth_out_of_core(const Args& args) {
   };
   tiles::OutOfCoreReport report;
   try {
-    report = tiles::smooth_out_of_core(run_input, run_output, params, ooc);
+    if (!nothing_selected) report = tiles::smooth_out_of_core(run_input, run_output, params, ooc);
   } catch (const ParamError& e) {
     // A point-file run that cannot start (e.g. too small a budget) leaves nothing behind;
     // a container run keeps its partial file for --resume, and says so when the budget was
@@ -305,7 +328,14 @@ int run_smooth_out_of_core(const Args& args) {
   if (container_out) guard.done = true;  // a container imported again: its folder goes
 
   double seconds_write = 0.0;
-  if (!container_out) {
+  SelectedExportSummary selected;
+  if (selecting) {
+    const auto t0 = std::chrono::steady_clock::now();
+    selected = export_selected(nothing_selected ? fs::path() : run_output, input, select.selection, output_path,
+                               output, ooc.memory_budget);
+    guard.done = true;
+    seconds_write = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  } else if (!container_out) {
     const auto t0 = std::chrono::steady_clock::now();
     ContainerExport exported;
     exported.memory_budget = ooc.memory_budget;
@@ -318,12 +348,12 @@ int run_smooth_out_of_core(const Args& args) {
   const double rate = report.seconds_steps > 0
                           ? static_cast<double>(report.points) * steps_here / report.seconds_steps
                           : 0.0;
-  if (!output.quiet)
+  if (!output.quiet && !nothing_selected)
     std::fprintf(stderr,
-                 "smooth: %llu points in %zu tiles, %d steps (%d resumed) out of core (k %d, lambda %.4g, eps %.4g) "
+                 "smooth: %llu %spoints in %zu tiles, %d steps (%d resumed) out of core (k %d, lambda %.4g, eps %.4g) "
                  "in %.2f s (%.3g point-steps/s); working memory %.1f MiB of %.1f MiB; %zu degenerate "
                  "points -> %s\n",
-                 static_cast<unsigned long long>(report.points), report.tiles, report.steps,
+                 static_cast<unsigned long long>(report.points), selecting ? "selected " : "", report.tiles, report.steps,
                  report.resumed_from, report.k, report.lambda, report.eps, seconds_total, rate,
                  static_cast<double>(report.peak_accounted_bytes) / (1 << 20),
                  static_cast<double>(ooc.memory_budget) / (1 << 20), report.degenerate, output_path.c_str());
@@ -334,7 +364,12 @@ int run_smooth_out_of_core(const Args& args) {
         .add("write", seconds_write).add("total", seconds_total);
     JsonObject j;
     j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
-    j.add("out_of_core", true).add("points", static_cast<std::size_t>(report.points)).add("tiles", report.tiles);
+    j.add("out_of_core", true)
+        .add("points", static_cast<std::size_t>(selecting ? selected.points : report.points))
+        .add("tiles", report.tiles);
+    if (selecting)
+      j.add("selection", selection_json(select, static_cast<std::size_t>(selected.selected),
+                                        static_cast<std::size_t>(selected.moved)));
     j.add("steps", report.steps).add("resumed_from", report.resumed_from).add("threads", thread_count());
     j.add("stop_reason", report.stop_reason ? std::string(to_string(*report.stop_reason))
                                             : std::string("unknown (the steps ended before this resume)"));

@@ -7,14 +7,17 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "out_of_core.hpp"
 #include "run_support.hpp"
 #include "pointfair/common/colour.hpp"
 #include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/las.hpp"
 #include "pointfair/io/point_file.hpp"
+#include "pointfair/io/point_selection.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/container_reader.hpp"
 
@@ -159,9 +162,7 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
   add_columns(schema, PointAttributes{});
   summary.points = *reader.count();
   const std::size_t chunk_points = reader.chunk_points_for(options.memory_budget);
-  std::string extension = output.extension().string();
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (extension == ".las" && !schema.quantization && summary.points > 0) {
+  if (io::point_format_of(output) == io::PointFormat::Las && !schema.quantization && summary.points > 0) {
     // LAS from a float source: the integer grid depends on the bounds of every point, so a
     // first pass (in row order) measures them, and the LAS writer streams with that grid (the
     // same bytes as writing the whole cloud at once).
@@ -186,6 +187,74 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
     add_columns(chunk, reader.run_attributes());
     writer->write(chunk);
   }
+  writer->finish();
+  return summary;
+}
+
+SelectedExportSummary export_selected(const fs::path& container, const fs::path& source,
+                                      const io::PointSelection& selection, const fs::path& output,
+                                      const OutputOptions& out, std::uint64_t memory_budget) {
+  SelectedExportSummary summary;
+  // The source's whole schema: a LAS file's EVLRs follow its points, and its writer takes them
+  // when it opens (skipping to the end seeks over the records).
+  io::PointTable schema;
+  {
+    const auto probe = io::open_point_reader(source);
+    if (const auto count = probe->count()) probe->skip(*count);
+    schema = probe->schema();
+  }
+  summary.points = count_points(source);
+  const bool normals = !container.empty() && !io::normal_columns(schema).empty();
+  const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
+  const auto chunk_points =
+      static_cast<std::size_t>(std::clamp<std::uint64_t>(memory_budget / 4 / point_bytes, 1024, kBlockRows));
+  const auto changed = [&] {
+    return io::IoError(source.string() + ": changed during the run (its selected points no longer match " +
+                       container.string() + ")");
+  };
+  OutputOptions columns = out;
+  columns.colour_by = ColourBy::None;
+  // Calls `f` with every chunk of the output, in the source's order.
+  const auto for_each_chunk = [&](const std::function<void(const io::PointTable&)>& f) {
+    const auto reader = io::open_point_reader(source);
+    std::unique_ptr<tiles::ContainerChunkReader> run;
+    if (!container.empty())
+      run = std::make_unique<tiles::ContainerChunkReader>(
+          container, tiles::ContainerReaderOptions{.original_order = true, .result_positions = true,
+                                                   .run_attributes = normals});
+    summary.selected = summary.moved = 0;
+    io::PointTable chunk, part;
+    while (reader->read(chunk, chunk_points) > 0) {
+      const std::vector<std::size_t> rows = io::selected_rows(chunk, selection, source);
+      if (!rows.empty()) {
+        if (!run || run->read(part, rows.size()) != rows.size()) throw changed();
+        if (normals) add_result_columns(part, run->run_attributes(), columns, false);
+        for (std::size_t j = 0; j < rows.size(); ++j)
+          summary.moved += part.positions[j] != chunk.positions[rows[j]] ? 1 : 0;
+        io::splice_rows(chunk, rows, part);
+        summary.selected += rows.size();
+      }
+      f(chunk);
+    }
+    if (run && run->read(part, 1) != 0) throw changed();
+  };
+  if (io::point_format_of(output) == io::PointFormat::Las && !schema.quantization && summary.points > 0) {
+    // As export_container: a first pass measures the bounds of the LAS grid.
+    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+    for_each_chunk([&](const io::PointTable& chunk) {
+      for (const Vec3& p : chunk.positions) {
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+    });
+    schema.quantization = io::las_quantization_for(lo, hi);
+  }
+  io::WriteOptions write;
+  write.input = source;
+  write.ply_encoding = ply_encoding(out.encoding);
+  write.las = out.las;
+  const auto writer = io::open_point_writer(output, schema, summary.points, write);
+  for_each_chunk([&](const io::PointTable& chunk) { writer->write(chunk); });
   writer->finish();
   return summary;
 }

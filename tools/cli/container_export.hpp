@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "method_options.hpp"
+#include "pointfair/io/point_selection.hpp"
 
 namespace pointfair::cli {
 
@@ -31,5 +32,24 @@ struct ExportSummary {
 ExportSummary export_container(const std::filesystem::path& container, const std::filesystem::path& output,
                                const OutputOptions& out, const ContainerExport& options,
                                const std::filesystem::path& input = {});
+
+struct SelectedExportSummary {
+  std::uint64_t points = 0;
+  /// Records the selection kept (the container's rows), and of them those whose position changed.
+  std::uint64_t selected = 0, moved = 0;
+};
+
+/// Writes `source` to `output` (format by extension, atomically) record by record, in its
+/// order, with the smoothed positions of the records `selection` keeps: the k-th of them takes
+/// the position of the k-th point (original order) of the finished run in `container`, which
+/// was imported from exactly those records (tiles::StreamImportOptions::select); normals the
+/// source has are refreshed for them as export_container does. Every other record is written
+/// as read. An empty `container` (a selection of no point) writes the source as it was.
+/// Memory stays within `memory_budget` but for a LAS output from a source without a
+/// quantization, whose chunks the LAS writer holds until its end. Throws IoError naming the
+/// file when the source and the container disagree (the source changed during the run).
+SelectedExportSummary export_selected(const std::filesystem::path& container, const std::filesystem::path& source,
+                                      const io::PointSelection& selection, const std::filesystem::path& output,
+                                      const OutputOptions& out, std::uint64_t memory_budget);
 
 }  // namespace pointfair::cli

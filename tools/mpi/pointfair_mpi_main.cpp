@@ -60,6 +60,21 @@ std::pair<int, int> injected_failure(const char* name) {
   return {cli::parse_int(s.substr(0, colon), name), cli::parse_int(s.substr(colon + 1), name)};
 }
 
+// pointfair smooth --classes and --returns put the smoothed points back among the others of the
+// point file; this tool reads and writes containers only, which hold the points a run smooths.
+void refuse_selection(cli::ArgumentParser& parser, const std::string& command) {
+  for (const char* name : {"classes", "returns"}) {
+    parser.value(name, "LIST",
+                 "Not taken here: run pointfair smooth IN OUT --" + std::string(name) +
+                     " LIST (with --memory-budget it runs out of core).",
+                 [name, command](std::string_view) {
+                   throw cli::UsageError(command + ": --" + name +
+                                         " is not supported on containers: run pointfair smooth IN OUT --" + name +
+                                         " LIST on the point file (out of core with --memory-budget)");
+                 });
+  }
+}
+
 int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
   std::string input, output;
   SmoothParams params;
@@ -85,6 +100,7 @@ int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
     if (threads < 0) throw cli::UsageError("--threads must be >= 0");
   });
   parser.flag("quiet", "No progress or summary on stderr.", [&] { quiet = true; });
+  refuse_selection(parser, "pointfair_mpi smooth");
   if (!parser.parse(args)) return 0;
   params.validate();
   set_thread_count(threads);
@@ -162,6 +178,7 @@ int run_import(const std::vector<std::string>& args, tiles::Ranks& ranks) {
       throw cli::UsageError("--deflate must be in 0..9");
   });
   parser.flag("quiet", "No summary on stderr.", [&] { quiet = true; });
+  refuse_selection(parser, "pointfair_mpi import");
   if (!parser.parse(args)) return 0;
   if (!cli::is_container_path(output))
     throw cli::UsageError("pointfair_mpi import: OUT must be a .h5 file, got '" + output + "'");

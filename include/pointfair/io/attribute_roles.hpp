@@ -1,7 +1,7 @@
 #pragma once
-// What some attributes of a point table mean, by their names: normals and colours. The
-// commands use it to refresh normals after the points moved and to leave a cloud's own
-// colours alone.
+// What some attributes of a point table mean, by their names: normals, colours and the
+// classification. The commands use it to refresh normals after the points moved, to leave a
+// cloud's own colours alone and to smooth only some classes.
 #include <array>
 #include <cstddef>
 #include <span>
@@ -22,6 +22,11 @@ std::vector<std::array<std::size_t, 3>> normal_columns(const PointTable& table);
 /// convention (e.g. towards the scanner) is kept; the columns keep their types.
 /// Requires normals.size() == table.size().
 void refresh_normals(PointTable& table, std::span<const Vec3> normals);
+
+/// The attribute holding a LAS classification code: "classification" (a LAS file's field, a
+/// PLY property or a text column of that name) or "class", case-insensitively; nullptr when
+/// there is none, and for a text table without a header line (its names are guesses).
+const Attribute* classification_column(const PointTable& table);
 
 /// True if `table` has colour columns: red green blue or r g b (case-insensitive).
 bool has_colour(const PointTable& table);

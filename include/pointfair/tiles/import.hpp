@@ -8,6 +8,7 @@
 #include <functional>
 #include <string>
 
+#include "pointfair/io/point_selection.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/ranks.hpp"
@@ -23,6 +24,10 @@ struct StreamImportOptions {
   /// Most points per chunk read from the input (fewer when a chunk would take more than an
   /// eighth of the budget).
   std::size_t read_chunk_points = 1u << 16;
+  /// The points to import (io::open_selected_reader): the others are left out, and the
+  /// container's original indices count the selected points only (the k-th selected point of
+  /// the input is original index k). The default takes every point.
+  io::PointSelection select;
   /// Passed to the input's reader (e.g. "faces ignored" warnings; given once, by the first pass).
   io::ReadOptions read;
   /// Called after every chunk of each pass with the pass ("count", "histogram", "scatter"),
