@@ -2,6 +2,10 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
+#include <limits>
+#include <tuple>
+#include <utility>
 
 #include <Eigen/Geometry>
 #include <string>
@@ -9,6 +13,7 @@
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/flow/shrink_compensation.hpp"
+#include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/neighbors/spatial_order.hpp"
 
@@ -31,6 +36,7 @@ SmoothParams paper_smooth_params(SmoothParams base) {
   base.shrink_compensation = 0.0;
   if (base.neighbors.k == 0) base.neighbors.k = kAutoKMin;
   base.finish.reset();
+  base.coarse.reset();
   base.placement = Placement::Free;
   base.flow.features.scale = FeatureScale::Lambda;
   return base;
@@ -99,6 +105,17 @@ void SmoothParams::validate() const {
   require(shrink_compensation >= 0.0 && shrink_compensation <= 1.0,
           "shrink compensation must be in [0, 1] (0 = off), got " + std::to_string(shrink_compensation));
   if (finish) finish->validate();
+  if (coarse) coarse->validate();
+}
+
+void CoarseLevelParams::validate() const {
+  require(ratio >= 2, "coarse ratio must be >= 2, got " + std::to_string(ratio));
+  require(fine_steps >= 0, "coarse fine steps must be >= 0, got " + std::to_string(fine_steps));
+  require(interpolation_k >= 1 && interpolation_k <= 64,
+          "coarse interpolation k must be in 1..64, got " + std::to_string(interpolation_k));
+  require(levels >= 1 && levels <= 8, "coarse levels must be in 1..8, got " + std::to_string(levels));
+  require(min_noise_ratio >= 0.0 && std::isfinite(min_noise_ratio),
+          "coarse minimum noise ratio must be >= 0, got " + std::to_string(min_noise_ratio));
 }
 
 namespace {
@@ -201,23 +218,116 @@ SmoothReport run_flow(std::vector<Vec3>& positions, const SmoothParams& params, 
 
 }  // namespace
 
+namespace {
+
+// The flow with the coarse levels of SmoothParams::coarse (none without it): `positions` in
+// place; the coarse levels' points and steps, finest first, appended to `levels`.
+SmoothReport flow_with_levels(std::vector<Vec3>& positions, SmoothParams params, const SmoothOptions& options,
+                              std::vector<CoarseLevelReport>& levels);
+
+// One coarse level under `positions`, if their noise is heavy enough (CoarseLevelParams::
+// min_noise_ratio) and the coarse sample large enough: the sample smoothed (with coarse levels
+// of its own, recursively) and every point moved by the displacement around it. False when
+// there was none.
+bool run_coarse_level(std::vector<Vec3>& positions, const SmoothParams& params,
+                      std::vector<CoarseLevelReport>& levels) {
+  const CoarseLevelParams& c = *params.coarse;
+  // The noise estimate of a coarse sample does not fall as its spacing grows (the surface's
+  // own curvature reads as noise at that scale): only the input's is tested, and the depth is
+  // CoarseLevelParams::levels.
+  if (static_cast<int>(levels.size()) >= c.levels) return false;
+  if (levels.empty() && !(estimate_noise(positions).ratio >= c.min_noise_ratio)) return false;
+  // Every ratio-th point in Morton order: a sample as even as the cloud.
+  const std::vector<Index> order = spatial_order(positions);
+  std::vector<Vec3> coarse_input;
+  coarse_input.reserve(order.size() / static_cast<std::size_t>(c.ratio) + 1);
+  for (std::size_t i = 0; i < order.size(); i += static_cast<std::size_t>(c.ratio)) coarse_input.push_back(positions[order[i]]);
+  // Too few for a surface of their own (the automatic k needs a few dozen): no coarse level.
+  if (coarse_input.size() < 64) return false;
+  SmoothParams coarse_params = params;
+  coarse_params.finish.reset();
+  coarse_params.placement = Placement::Free;
+  coarse_params.neighbors.k = 0;  // measured on the coarse sample, whose spacing is larger
+  const std::size_t at = levels.size();
+  levels.push_back({coarse_input.size(), 0});
+  std::vector<Vec3> coarse = coarse_input;
+  const SmoothReport coarse_report = flow_with_levels(coarse, coarse_params, {}, levels);
+  levels[at].steps = coarse_report.steps;
+  // Only the coarse points' moves across the surface (along their normals) carry over: their
+  // slide along it (the free flow's, towards denser parts) would move the points off the
+  // places the placement keeps.
+  const PointAttributes frames = compute_attributes(coarse, coarse_report.neighborhoods, coarse_params.flow,
+                                                    coarse_report.lambda);
+  parallel_for(coarse.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t j = begin; j < end; ++j) {
+      const Vec3& n = frames.normal[j];
+      if (n.allFinite() && n.squaredNorm() > 0.5) coarse[j] = coarse_input[j] + (coarse[j] - coarse_input[j]).dot(n) * n;
+    }
+  }, 4096);
+  // Each point moves by the coarse displacement around it: Gaussian weights over its
+  // interpolation_k nearest coarse input points, the farthest at weight exp(-2).
+  const KdTree tree(coarse_input);
+  const int want = std::min<int>(c.interpolation_k, static_cast<int>(coarse_input.size()));
+  parallel_for(positions.size(), [&](std::size_t begin, std::size_t end) {
+    std::vector<Index> near(static_cast<std::size_t>(want));
+    std::vector<double> d2(static_cast<std::size_t>(want));
+    for (std::size_t i = begin; i < end; ++i) {
+      const int found = tree.nearest(positions[i], want, std::numeric_limits<double>::infinity(), near.data(), d2.data());
+      const double reach2 = d2[static_cast<std::size_t>(found - 1)] > 0.0 ? d2[static_cast<std::size_t>(found - 1)] : 1.0;
+      Vec3 moved = Vec3::Zero();
+      double weights = 0.0;
+      for (int j = 0; j < found; ++j) {
+        const double w = std::exp(-2.0 * d2[static_cast<std::size_t>(j)] / reach2);
+        moved += w * (coarse[near[static_cast<std::size_t>(j)]] - coarse_input[near[static_cast<std::size_t>(j)]]);
+        weights += w;
+      }
+      positions[i] += moved / weights;
+    }
+  }, 1024);
+  return true;
+}
+
+SmoothReport flow_with_levels(std::vector<Vec3>& positions, SmoothParams params, const SmoothOptions& options,
+                              std::vector<CoarseLevelReport>& levels) {
+  const int requested_k = params.neighbors.k;
+  params = resolve_k(params, positions);
+  if (params.coarse && run_coarse_level(positions, params, levels)) {
+    // Every point then takes fine_steps steps, on neighbourhoods of the positions the coarse
+    // level left (the automatic k measured on them when it was automatic).
+    params.steps = params.coarse->fine_steps;
+    params.stop_lambda_ratio = 0.0;
+    params.stop_plateau = 0.0;
+    params.neighbors.k = requested_k;
+    params = resolve_k(params, positions);
+  }
+  return run_flow(positions, params, options);
+}
+
+}  // namespace
+
 SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested, const SmoothOptions& options) {
   requested.validate();
   require_finite(positions, "smooth");
-  const SmoothParams params = resolve_k(requested, positions);
-  const bool place = params.finish && params.placement == Placement::AlongNormal;
+  require(!requested.coarse || options.neighbor_reference.empty(),
+          "a coarse level cannot take neighbourhoods from a reference cloud");
+  const bool place = requested.finish && requested.placement == Placement::AlongNormal;
   // The input positions the placement moves along the normals (24 bytes a point).
   const std::vector<Vec3> input = place ? positions : std::vector<Vec3>{};
-  SmoothReport report = run_flow(positions, params, options);
-  if (!params.finish) return report;
   const auto t0 = std::chrono::steady_clock::now();
+  std::vector<CoarseLevelReport> levels;
+  SmoothReport report = flow_with_levels(positions, requested, options, levels);
+  report.coarse_levels = std::move(levels);
+  if (!report.coarse_levels.empty())
+    report.seconds_coarse = seconds_since(t0) - report.seconds_neighbors - report.seconds_steps;
+  if (!requested.finish) return report;
+  const auto t1 = std::chrono::steady_clock::now();
   FinishProgress finish_progress;
   if (options.progress)
     finish_progress = [&](std::size_t done, std::size_t total) { options.progress(SmoothStage::Finish, done, total); };
-  finish_with_quadrics(positions, *params.finish, input, finish_progress);
-  report.finish_passes = params.finish->passes;
+  finish_with_quadrics(positions, *requested.finish, input, finish_progress);
+  report.finish_passes = requested.finish->passes;
   report.placed_along_normal = place;
-  report.seconds_finish = seconds_since(t0);
+  report.seconds_finish = seconds_since(t1);
   return report;
 }
 

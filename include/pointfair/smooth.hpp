@@ -30,6 +30,40 @@ enum class Placement {
   Free,
 };
 
+/// A flow on a coarser sample before the flow on every point (beyond the paper). Under heavy
+/// noise (noise sigma of a sample spacing or more) the explicit steps need many steps to carry
+/// the smoothing across the noise's reach, about (sigma / spacing)^2; on every ratio-th point
+/// (in Morton order) the spacing is sqrt(ratio) times larger, so a step there costs 1/ratio
+/// and reaches as far as ratio steps on every point. Each point then moves by the coarse
+/// points' displacement near it (a Gaussian-weighted mean over its interpolation_k nearest
+/// coarse input points), and fine_steps steps on every point remove what the coarse sample
+/// cannot see. With levels > 1 the coarse sample gets a coarse level of its own, and so on:
+/// the coarsest level runs the flow with its automatic stop, each finer one fine_steps. The
+/// finish and the placement follow as without it, the
+/// placement measured from the input positions.
+struct CoarseLevelParams {
+  /// Every ratio-th point (>= 2) in Morton order is a coarse point. 2 measured better than
+  /// 4, whose coarse neighbourhoods reach too far on curved surfaces (docs/coarse-level.md).
+  int ratio = 2;
+  /// Steps on every point after the coarse flow (>= 0; the automatic stop does not apply).
+  int fine_steps = 10;
+  /// Coarse points each point's displacement is interpolated from (1..64).
+  int interpolation_k = 8;
+  /// Coarse levels under the input at most (1..8): the first coarse sample gets one of its
+  /// own when levels >= 2, and so on.
+  int levels = 1;
+  /// The coarse levels run only when the input's noise is at least this many sample spacings
+  /// (estimate_noise; >= 0): the light noise the flow removes in a few steps needs none.
+  double min_noise_ratio = 1.0;
+  void validate() const;
+};
+
+/// One coarse level of a run: its points and the steps its flow took.
+struct CoarseLevelReport {
+  std::size_t points = 0;
+  int steps = 0;
+};
+
 struct SmoothParams {
   /// neighbors.k = 0 (the default here): chosen from the input's noise over its sample spacing
   /// (automatic_k, neighborhood_size.hpp), 16 under light noise up to 48 under noise of several
@@ -100,6 +134,9 @@ struct SmoothParams {
   /// Where the output points go (Placement); AlongNormal needs the finish and is ignored
   /// without it.
   Placement placement = Placement::AlongNormal;
+  /// A coarse level before the flow (CoarseLevelParams); empty: none. In core only for now
+  /// (smooth_out_of_core refuses it).
+  std::optional<CoarseLevelParams> coarse;
 
   void validate() const;
 };
@@ -127,7 +164,7 @@ std::string_view to_string(SmoothStage stage);
 /// feature settings are kept): the cut-off's curvatures from the point itself, PCA planes,
 /// tau 0.5, 100 steps, no automatic stop, no shrinkage compensation, no automatic k (the
 /// paper sets k by hand: an automatic k becomes 16, a given one is kept), no finish, the
-/// free flow's positions and feature classes thresholded by lambda. The CLI's --paper.
+/// free flow's positions and feature classes thresholded by lambda, no coarse level. The CLI's --paper.
 SmoothParams paper_smooth_params(SmoothParams base = {});
 
 /// `params` with neighbors.k resolved: automatic_k(input) when it is 0.
@@ -159,6 +196,9 @@ struct SmoothOptions {
 
 struct SmoothReport {
   int steps = 0;
+  /// The coarse levels that ran (SmoothParams::coarse), finest first; `steps` are the steps
+  /// on every point.
+  std::vector<CoarseLevelReport> coarse_levels;
   /// The neighbourhood size used (the automatic choice or neighbors.k).
   int k = 0;
   /// Resolved radius bound and cut-off threshold (the last ones, if rebuilt).
@@ -176,6 +216,8 @@ struct SmoothReport {
   double seconds_neighbors = 0.0;
   double seconds_steps = 0.0;
   double seconds_finish = 0.0;
+  /// The coarse level, all of it (its neighbourhoods, steps and the interpolation).
+  double seconds_coarse = 0.0;
   /// The neighbourhoods in force at the end (for curvature output).
   Neighborhoods neighborhoods;
 };

@@ -59,6 +59,10 @@ std::map<std::string, std::string> library_defaults() {
       {"quadric-iterations", text(q.iterations)},
       {"quadric-curvature-reach", text(q.curvature_reach)},
       {"quadric-min-k", text(q.min_k)},
+      {"coarse-level", p.coarse ? "on" : "off"},
+      {"coarse-ratio", text(CoarseLevelParams{}.ratio)},
+      {"coarse-levels", text(CoarseLevelParams{}.levels)},
+      {"coarse-fine-steps", text(CoarseLevelParams{}.fine_steps)},
   };
 }
 

@@ -170,6 +170,7 @@ int run_smooth(const Args& args) {
     JsonObject seconds;
     seconds.add("read", seconds_read).add("neighbors", report.seconds_neighbors)
         .add("steps", report.seconds_steps).add("finish", report.seconds_finish).add("attributes", seconds_attributes)
+        .add("coarse_level", report.seconds_coarse)
         .add("write", seconds_write).add("total", seconds_total);
     JsonObject j;
     j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
@@ -179,6 +180,19 @@ int run_smooth(const Args& args) {
     j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
     j.add("neighbors_from", reference);
     if (selecting) j.add("selection", selection_json(select, table.size(), moved_points));
+    if (params.coarse) {
+      JsonObject coarse;
+      coarse.add("ratio", params.coarse->ratio).add("fine_steps", params.coarse->fine_steps)
+          .add("interpolation_k", params.coarse->interpolation_k).add("levels_at_most", params.coarse->levels)
+          .add("min_noise_ratio", params.coarse->min_noise_ratio);
+      std::vector<JsonObject> levels;
+      for (const CoarseLevelReport& level : report.coarse_levels) {
+        levels.emplace_back();
+        levels.back().add("points", level.points).add("steps", level.steps);
+      }
+      coarse.add("levels", levels);
+      j.add("coarse_level", coarse);
+    }
     j.add("quadric_finish", finish_json(params));
     j.add("placement", report.placed_along_normal ? "normal" : "free");
     j.add("seconds", seconds).add("point_steps_per_second", rate);

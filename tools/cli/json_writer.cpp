@@ -55,6 +55,13 @@ JsonObject& JsonObject::add(std::string_view key, const JsonObject& value) {
   return *this;
 }
 
+JsonObject& JsonObject::add(std::string_view key, const std::vector<JsonObject>& values) {
+  std::string text = "[";
+  for (std::size_t i = 0; i < values.size(); ++i) text += (i > 0 ? ", " : "") + values[i].str();
+  members_.emplace_back(key, text + "]");
+  return *this;
+}
+
 std::string JsonObject::str() const {
   std::string out = "{";
   for (std::size_t i = 0; i < members_.size(); ++i) {

@@ -16,6 +16,8 @@ class JsonObject {
   JsonObject& add(std::string_view key, std::string_view value);
   JsonObject& add(std::string_view key, const char* value) { return add(key, std::string_view(value)); }
   JsonObject& add(std::string_view key, const JsonObject& value);
+  /// An array of objects.
+  JsonObject& add(std::string_view key, const std::vector<JsonObject>& values);
   std::string str() const;
 
  private:

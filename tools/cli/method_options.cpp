@@ -226,6 +226,30 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Lower clamp of the directional density delta_ij, as a fraction of c1 + c2, in (0, 1]. "
           "Default 0.05.",
           [&s](std::string_view v) { s.flow.weingarten.density_floor = parse_double(v, "--density-floor"); });
+  // A --coarse-* value turns the coarse level on (with the defaults for the values not given).
+  const auto coarse = [&s]() -> CoarseLevelParams& {
+    if (!s.coarse) s.coarse.emplace();
+    return *s.coarse;
+  };
+  const CoarseLevelParams c;
+  p.flag("coarse-level",
+         "Before the flow on every point, run it on every --coarse-ratio-th point (in Morton "
+         "order), move each point by the coarse displacement near it, then take "
+         "--coarse-fine-steps steps on every point; only where the input's noise is at least one "
+         "sample spacing (beyond the paper; in core only): under heavy noise closer to the "
+         "surface in fewer steps (docs/coarse-level.md). Default off.",
+         [coarse] { coarse(); });
+  p.value("coarse-ratio", "R",
+          "Points per coarse point (>= 2). Implies --coarse-level. Default " + std::to_string(c.ratio) + ".",
+          [coarse](std::string_view v) { coarse().ratio = parse_int(v, "--coarse-ratio"); });
+  p.value("coarse-levels", "L",
+          "Coarse levels under the input (1..8; each coarse sample gets one of its own). Implies "
+          "--coarse-level. Default " + std::to_string(c.levels) + ".",
+          [coarse](std::string_view v) { coarse().levels = parse_int(v, "--coarse-levels"); });
+  p.value("coarse-fine-steps", "N",
+          "Steps on every point after the coarse level (the automatic stop does not apply). "
+          "Implies --coarse-level. Default " + std::to_string(c.fine_steps) + ".",
+          [coarse](std::string_view v) { coarse().fine_steps = parse_int(v, "--coarse-fine-steps"); });
 }
 
 void add_finish_options(ArgumentParser& p, SmoothParams& s) {
