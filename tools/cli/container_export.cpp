@@ -162,7 +162,8 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
   add_columns(schema, PointAttributes{});
   summary.points = *reader.count();
   const std::size_t chunk_points = reader.chunk_points_for(options.memory_budget);
-  if (io::point_format_of(output) == io::PointFormat::Las && !schema.quantization && summary.points > 0) {
+  if (io::point_format_of(output) == io::PointFormat::Las && !schema.quantization && !(out.las.scale && out.las.offset) &&
+      summary.points > 0) {
     // LAS from a float source: the integer grid depends on the bounds of every point, so a
     // first pass (in row order) measures them, and the LAS writer streams with that grid (the
     // same bytes as writing the whole cloud at once).
@@ -238,7 +239,8 @@ SelectedExportSummary export_selected(const fs::path& container, const fs::path&
     }
     if (run && run->read(part, 1) != 0) throw changed();
   };
-  if (io::point_format_of(output) == io::PointFormat::Las && !schema.quantization && summary.points > 0) {
+  if (io::point_format_of(output) == io::PointFormat::Las && !schema.quantization && !(out.las.scale && out.las.offset) &&
+      summary.points > 0) {
     // As export_container: a first pass measures the bounds of the LAS grid.
     Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
     for_each_chunk([&](const io::PointTable& chunk) {
