@@ -235,8 +235,8 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
   p.flag("coarse-level",
          "Before the flow on every point, run it on every --coarse-ratio-th point (in Morton "
          "order), move each point by the coarse displacement near it, then take "
-         "--coarse-fine-steps steps on every point; only where the input's noise is at least one "
-         "sample spacing (beyond the paper; in core only): under heavy noise closer to the "
+         "--coarse-fine-steps steps on every point; only where the input's noise is at least 1.5 "
+         "sample spacings (beyond the paper; in core only): under heavy noise closer to the "
          "surface in fewer steps (docs/coarse-level.md). Default off.",
          [coarse] { coarse(); });
   p.value("coarse-ratio", "R",
