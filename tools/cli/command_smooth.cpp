@@ -1,5 +1,4 @@
 // pointfair smooth IN OUT: the (an)isotropic mean curvature flow on a point file.
-#include <chrono>
 #include <cstdio>
 #include <iostream>
 
@@ -9,19 +8,13 @@
 #include "progress.hpp"
 #include "number_text.hpp"
 #include "run_support.hpp"
+#include "smooth_point_file.hpp"
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/attribute_roles.hpp"
 
 namespace pointfair::cli {
-namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
 
 int run_smooth(const Args& args) {
   // HDF5 containers, --memory-budget and --resume: the out-of-core run (command_smooth_tiled.cpp).
@@ -53,19 +46,6 @@ int run_smooth(const Args& args) {
   io::require_output_path(output_path);
   output.attribute_prefix = attribute_prefix_for(output_path);
 
-  const auto t_start = std::chrono::steady_clock::now();
-  io::PointTable table = read_input(input, output.quiet);
-  std::vector<Vec3> reference_positions;
-  if (!reference.empty()) {
-    reference_positions = read_input(reference, output.quiet).positions;
-    if (reference_positions.size() != table.size())
-      throw ParamError(reference + ": has " + std::to_string(reference_positions.size()) + " points, " + input +
-                       " has " + std::to_string(table.size()) +
-                       " (--neighbors-from needs the input's points in the same order)");
-  }
-  const double seconds_read = seconds_since(t_start);
-  const std::vector<Vec3> before = table.positions;
-
   // One progress line per stage; the steps' line says how the automatic stop works, since
   // their count is only the most steps run.
   const bool auto_stop = params.flow.flow == Flow::Anisotropic && params.flow.lambda == 0.0 &&
@@ -74,12 +54,15 @@ int run_smooth(const Args& args) {
   if (auto_stop)
     step_label = "smooth: step (stops once the noise measure lambda falls to " + format_number(params.stop_lambda_ratio) +
                  " of its start or levels off)";
-  if (!output.quiet) std::fprintf(stderr, "smooth: %zu points read; neighbourhoods...\n", table.size());
   Progress steps_progress(step_label, !output.quiet);
   Progress finish_progress("smooth: finish (quadric fits, points x passes)", !output.quiet);
-  SmoothOptions options;
-  options.neighbor_reference = reference_positions;
-  options.progress = [&](SmoothStage stage, std::size_t done, std::size_t total) {
+  PointFileSmooth run;
+  run.input = input;
+  run.output = output_path;
+  run.reference = reference;
+  run.params = params;
+  run.output_options = output;
+  run.progress = [&](SmoothStage stage, std::size_t done, std::size_t total) {
     throw_if_interrupted();  // unwinds out of smooth(): nothing has been written yet
     if (stage == SmoothStage::Steps) {
       steps_progress.update(static_cast<long long>(done), static_cast<long long>(total));
@@ -88,69 +71,35 @@ int run_smooth(const Args& args) {
       finish_progress.update(static_cast<long long>(done), static_cast<long long>(total));
     }
   };
-  throw_if_interrupted();
-  SmoothReport report;
+  run.check = [&] {
+    steps_progress.finish();
+    finish_progress.finish();
+    throw_if_interrupted();
+  };
+  run.note = [quiet = output.quiet](std::string_view text) {
+    if (!quiet) std::fprintf(stderr, "%.*s\n", static_cast<int>(text.size()), text.data());
+  };
+  PointFileSmoothResult result;
   try {
     const StopOnInterrupt stop_on_interrupt;  // a signal ends the current step or fit within a second
-    report = smooth(table.positions, params, options);
+    result = smooth_point_file(run);
   } catch (const Stopped&) {
     throw_if_interrupted();
     throw;
   }
-  steps_progress.finish();
-  finish_progress.finish();
-
-  auto t0 = std::chrono::steady_clock::now();
-  const bool need_attributes =
-      output.attributes || output.colour_by != ColourBy::None || !io::normal_columns(table).empty();
-  std::size_t degenerate_final = report.degenerate;
-  if (need_attributes) {
-    throw_if_interrupted();
-    const PointAttributes attributes =
-        compute_attributes(table.positions, report.neighborhoods, params.flow, report.lambda);
-    degenerate_final = attributes.degenerate;
-    add_result_columns(table, attributes, output, output.attributes, curvature_type(attributes));
-  }
-  const double seconds_attributes = seconds_since(t0);
-  throw_if_interrupted();
-  if (!output.quiet) std::fprintf(stderr, "smooth: writing %s\n", output_path.c_str());
-  t0 = std::chrono::steady_clock::now();
-  write_output(output_path, table, output, input);
-  const double seconds_write = seconds_since(t0);
-  const double seconds_total = seconds_since(t_start);
-
-  const DisplacementStats moved = displacement_stats(before, table.positions);
-  const double rate = report.seconds_steps > 0
-                          ? static_cast<double>(table.size()) * report.steps / report.seconds_steps
-                          : 0.0;
+  const SmoothReport& report = result.report;
+  const DisplacementStats& moved = result.moved;
   if (!output.quiet) {
     std::fprintf(stderr,
                  "smooth: %zu points, %d %s steps (k %d, tau %g, lambda %.4g, eps %.4g) in %.2f s "
                  "(%.3g point-steps/s); displacement mean %.4g, max %.4g (%.3g%% of the diagonal); "
                  "%zu degenerate points -> %s\n",
-                 table.size(), report.steps, to_string(params.flow.flow).c_str(), report.k, params.flow.tau,
-                 report.lambda, report.eps, seconds_total, rate, moved.mean, moved.max,
-                 moved.diagonal > 0 ? 100.0 * moved.max / moved.diagonal : 0.0, degenerate_final,
+                 result.points, report.steps, to_string(params.flow.flow).c_str(), report.k, params.flow.tau,
+                 report.lambda, report.eps, result.seconds_total, result.rate, moved.mean, moved.max,
+                 moved.diagonal > 0 ? 100.0 * moved.max / moved.diagonal : 0.0, result.degenerate,
                  output_path.c_str());
   }
-  if (output.json) {
-    JsonObject seconds;
-    seconds.add("read", seconds_read).add("neighbors", report.seconds_neighbors)
-        .add("steps", report.seconds_steps).add("finish", report.seconds_finish).add("attributes", seconds_attributes)
-        .add("write", seconds_write).add("total", seconds_total);
-    JsonObject j;
-    j.add("command", "smooth").add("version", version()).add("input", input).add("output", output_path);
-    j.add("points", table.size()).add("steps", report.steps).add("rebuilds", report.rebuilds);
-    j.add("stop_reason", std::string(to_string(report.stop_reason)));
-    j.add("threads", thread_count());
-    j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
-    j.add("neighbors_from", reference);
-    j.add("quadric_finish", finish_json(params));
-    j.add("placement", report.placed_along_normal ? "normal" : "free");
-    j.add("seconds", seconds).add("point_steps_per_second", rate);
-    j.add("displacement", to_json(moved)).add("degenerate_points", degenerate_final);
-    std::cout << j.str() << std::endl;
-  }
+  if (output.json) std::cout << result.json.str() << std::endl;
   return 0;
 }
 
