@@ -47,6 +47,4 @@ set(POINTFAIR_PYTHON_INSTALL_DIR "lib/python3/dist-packages" CACHE STRING
   "Install folder of the Python package pointfair, relative to the prefix")
 if(POINTFAIR_PYTHON)
   message(STATUS "pointfair: Python module for ${Python3_EXECUTABLE} (${Python3_VERSION})")
-  # The module is a shared object: the static libraries it links must be position independent.
-  set(CMAKE_POSITION_INDEPENDENT_CODE ON)
 endif()
