@@ -2,8 +2,6 @@
 
 #include <pybind11/numpy.h>
 
-#include <cmath>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -39,10 +37,16 @@ py::array column_of(const io::Attribute& a) {
 
 py::dict read(const std::string& path) {
   io::PointTable table;
+  std::vector<std::string> warnings;
   {
     const py::gil_scoped_release release;
-    table = io::read_points(path);
+    io::ReadOptions options;
+    options.on_warning = [&warnings](const std::string& message) { warnings.push_back(message); };
+    table = io::read_points(path, options);
   }
+  // The reader's notes on recoverable oddities ("faces ignored"), as the command prints them.
+  for (const std::string& message : warnings)
+    if (PyErr_WarnEx(PyExc_RuntimeWarning, message.c_str(), 1) != 0) throw py::error_already_set();
   py::dict out;
   out["xyz"] = points_out(std::move(table.positions));
   for (const io::Attribute& a : table.attributes) out[py::str(a.name)] = column_of(a);
@@ -127,7 +131,7 @@ void bind_io(py::module_& m) {
 Reads a point file (.ply, .las, .xyz/.txt/.pts/.csv/.asc) as `pointfair` does: 'xyz', the
 (N, 3) float64 positions, and every attribute under its name as an (N,) array of the type the
 file stores it in (uint8, int16, float32, ...). Raises pointfair.IoError (an OSError) naming
-the file and the problem.)doc");
+the file and the problem; what the command prints as warnings are RuntimeWarnings.)doc");
   m.def("write", &write, py::arg("path"), py::arg("cloud"), py::kw_only(), py::arg("encoding") = py::none(),
         R"doc(write(path, cloud, *, encoding=None)
 

@@ -83,6 +83,16 @@ class RoundTrip(Folder):
         with open(path, "rb") as f:
             self.assertIn(b"property float x", f.read(300))
 
+    def test_reader_notes_are_warnings(self):
+        path = self.path("faces.ply")
+        with open(path, "w") as f:
+            f.write("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                    "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                    "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+        with self.assertWarnsRegex(RuntimeWarning, "face"):
+            cloud = pointfair.read(path)
+        self.assertEqual(cloud["xyz"].shape, (3, 3))
+
     def test_reads_what_the_command_writes(self):
         path = self.path("generated.ply")
         run_cli("generate", "sphere", path, "--points", 100)
