@@ -49,6 +49,14 @@ class SmoothFile(Folder):
         for name in ("red", "green", "blue", "k1", "feature_class"):
             self.assertIn(name, cloud)
 
+    def test_neighbors_from_and_threads(self):
+        source = self.generated("sphere")
+        reference = self.generated("sphere", noise=0.1, name="reference.ply")
+        report, _ = self.run_both(source, ".xyz", ["--neighbors-from", reference, "--steps", "4", "--threads", "1"],
+                                  {"neighbors_from": reference, "steps": 4, "threads": 1})
+        self.assertEqual(report["neighbors_from"], reference)
+        self.assertEqual(report["threads"], 1)
+
     def test_budget_that_fits_runs_in_core(self):
         source = self.generated("cube")
         report = pointfair.smooth_file(source, self.path("out.ply"), memory_budget="1G", steps=2)
