@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The whole test suite, in stages (each prints its wall time):
-#   main       Release build (warnings as errors) of everything; every test with ctest
+#   main       Release build (warnings as errors) of everything, the Python module included;
+#              every test with ctest (the module's: Python.*, label python)
 #   package    cmake --install into a prefix; tests/package (project(x CXX), find_package)
-#              configured, built and run against it
+#              configured, built and run against it; the installed Python package imported
 #   mpi        pointfair_mpi (OpenMPI + parallel HDF5) under mpirun: 1-4 ranks bit-identical
 #              to the single-process run, failing ranks, resuming on other rank counts; the
 #              import on 1-4 ranks; the Slurm scripts (shellcheck, a run against stand-ins)
@@ -54,6 +55,12 @@ cmake -S tests/package -B "$package/consumer" -G Ninja -DCMAKE_BUILD_TYPE=Releas
 cmake --build "$package/consumer"
 mkdir -p "$package/run"
 "$package/consumer/consumer" "$package/run"
+# The Python package as docs/python.md installs it, imported from the prefix (not the build).
+if grep -q '^POINTFAIR_PYTHON:BOOL=ON' "$build/CMakeCache.txt"; then
+  python=$(sed -n 's/^Python3_EXECUTABLE:FILEPATH=//p' "$build/CMakeCache.txt")
+  (cd "$package" && PYTHONPATH="$PWD/prefix/lib/python3/dist-packages" "$python" -c \
+    'import numpy, pointfair; assert pointfair.smooth(numpy.random.default_rng(1).normal(size=(300, 3)), steps=2).shape == (300, 3)')
+fi
 
 if [ "${POINTFAIR_MPI_STAGE:-1}" != 0 ]; then
   stage mpi
@@ -74,7 +81,7 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
   cmake -S . -B "$asan" -G Ninja -DCMAKE_BUILD_TYPE=Release \
     -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DCMAKE_C_FLAGS_RELEASE="-O1 -DNDEBUG" \
     -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_TEST_OPENMP=OFF -DPOINTFAIR_SANITIZE=address,undefined \
-    "${config[@]}" >/dev/null
+    -DPOINTFAIR_PYTHON=OFF "${config[@]}" >/dev/null
   cmake --build "$asan" -j"$jobs"
   ASAN_OPTIONS=abort_on_error=1:detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     LSAN_OPTIONS=suppressions="$PWD/tests/sanitizers/lsan.supp":print_suppressions=0 \
@@ -84,7 +91,8 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
   tsan="$build-tsan"
   cmake -S . -B "$tsan" -G Ninja -DCMAKE_BUILD_TYPE=Release \
     -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" -DCMAKE_C_FLAGS_RELEASE="-O1 -DNDEBUG" \
-    -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_PARALLEL=Threads -DPOINTFAIR_SANITIZE=thread "${config[@]}" >/dev/null
+    -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_PARALLEL=Threads -DPOINTFAIR_SANITIZE=thread -DPOINTFAIR_PYTHON=OFF \
+    "${config[@]}" >/dev/null
   cmake --build "$tsan" -j"$jobs" --target pointfair_threading_tests pointfair_pipeline_tests \
     pointfair_tiled_threading_tests
   TSAN_OPTIONS=halt_on_error=1 ctest --test-dir "$tsan" --output-on-failure -j"$jobs" --timeout 600 \
@@ -103,7 +111,7 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
     fuzz="$build-fuzz"
     cmake -S . -B "$fuzz" -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_BUILD_TYPE=Release \
       -DCMAKE_CXX_FLAGS_RELEASE="-O1 -DNDEBUG" \
-      -DPOINTFAIR_WERROR=ON -DPOINTFAIR_BUILD_TESTS=OFF -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_FUZZ=ON \
+      -DPOINTFAIR_WERROR=ON -DPOINTFAIR_BUILD_TESTS=OFF -DPOINTFAIR_BUILD_BENCH=OFF -DPOINTFAIR_FUZZ=ON -DPOINTFAIR_PYTHON=OFF \
       -DPOINTFAIR_FUZZ_SECONDS="${POINTFAIR_FUZZ_SECONDS:-$([ "$full" = 1 ] && echo 60 || echo 10)}" \
       "${config[@]}" >/dev/null
     cmake --build "$fuzz" -j"$jobs" --target pointfair_fuzz_ply pointfair_fuzz_xyz pointfair_fuzz_las pointfair_fuzz_container

@@ -47,6 +47,12 @@ const ArgumentParser::Option* ArgumentParser::find(std::string_view name) const 
   return nullptr;
 }
 
+std::vector<std::string> ArgumentParser::names() const {
+  std::vector<std::string> out;
+  for (const auto& o : options_) out.push_back(o.name);
+  return out;
+}
+
 bool ArgumentParser::parse(const std::vector<std::string>& args) {
   std::size_t next_positional = 0;
   for (std::size_t i = 0; i < args.size(); ++i) {

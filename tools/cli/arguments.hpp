@@ -34,6 +34,14 @@ class ArgumentParser {
   /// (the help text has then been printed).
   bool parse(const std::vector<std::string>& args);
   std::string help() const;
+  /// Whether --name is an option of this parser, and whether it is a flag (takes no value).
+  bool has(std::string_view name) const { return find(name) != nullptr; }
+  bool is_flag(std::string_view name) const {
+    const Option* option = find(name);
+    return option != nullptr && static_cast<bool>(option->apply_flag);
+  }
+  /// The options' names, in the order they were registered.
+  std::vector<std::string> names() const;
 
  private:
   struct Option {

@@ -175,14 +175,7 @@ int run_smooth_out_of_core(const Args& args) {
   if (!container_in) {
     // The PLY header's count, or a counting pass over a text file: the cloud is not loaded.
     const std::uint64_t points = count_points(input);
-    const bool compensated = params.shrink_compensation > 0.0;
-    // The automatic k is not known before the cloud is read: size for the largest it picks.
-    // In core the quadric finish adds its normals and short lists and one block of its
-    // k-long lists; out of core, tiles hold k-long lists for every point.
-    const int flow_k = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
-    const std::uint64_t in_core = in_core_bytes(points, flow_k, compensated) +
-                                  (params.finish ? in_core_finish_bytes(points, *params.finish) : 0);
-    if (!container_out && in_core <= ooc.memory_budget && !ooc.resume) {
+    if (!container_out && fits_in_core(points, params, ooc.memory_budget) && !ooc.resume) {
       return run_smooth(without_budget(args));
     }
     io::require_distinct(input, output_path);

@@ -8,6 +8,7 @@
 #include "arguments.hpp"
 #include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/point_file.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
 
 namespace pointfair::cli {
 
@@ -68,6 +69,17 @@ std::uint64_t in_core_finish_bytes(std::uint64_t points, const QuadricProjection
   const std::uint64_t near = static_cast<std::uint64_t>(std::min(q.k, q.normal_neighbors));
   const std::uint64_t block = std::min<std::uint64_t>(points, kQuadricBlock);
   return points * (3 * 24 + 4 * near + 2 + 50) + block * (4 * static_cast<std::uint64_t>(q.k) + 2);
+}
+
+bool fits_in_core(std::uint64_t points, const SmoothParams& params, std::uint64_t budget) {
+  const bool compensated = params.shrink_compensation > 0.0;
+  // The automatic k is not known before the cloud is read: size for the largest it picks.
+  // In core the quadric finish adds its normals and short lists and one block of its
+  // k-long lists; out of core, tiles hold k-long lists for every point.
+  const int flow_k = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
+  const std::uint64_t in_core = in_core_bytes(points, flow_k, compensated) +
+                                (params.finish ? in_core_finish_bytes(points, *params.finish) : 0);
+  return in_core <= budget;
 }
 
 }  // namespace pointfair::cli

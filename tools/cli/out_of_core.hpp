@@ -5,6 +5,7 @@
 #include <string_view>
 
 #include "pointfair/finish/quadric_projection.hpp"
+#include "pointfair/smooth.hpp"
 
 namespace pointfair::cli {
 
@@ -30,5 +31,10 @@ inline constexpr std::uint64_t kMinImportBudget = std::uint64_t{16} << 20;
 std::uint64_t in_core_bytes(std::uint64_t points, int k, bool compensated = false);
 /// What the in-core quadric finish adds to that.
 std::uint64_t in_core_finish_bytes(std::uint64_t points, const QuadricProjectionParams& finish);
+
+/// Whether `pointfair smooth` runs a point file of `points` points in core under a memory
+/// budget of `budget` bytes: when in_core_bytes (sized for the largest automatic k, which is
+/// not known before the cloud is read) and in_core_finish_bytes fit in it.
+bool fits_in_core(std::uint64_t points, const SmoothParams& params, std::uint64_t budget);
 
 }  // namespace pointfair::cli

@@ -168,4 +168,17 @@ JsonObject finish_json(const SmoothParams& p) {
   return j;
 }
 
+JsonObject coarse_level_json(const CoarseLevelParams& coarse, const std::vector<CoarseLevelReport>& levels) {
+  JsonObject j;
+  j.add("ratio", coarse.ratio).add("fine_steps", coarse.fine_steps).add("interpolation_k", coarse.interpolation_k)
+      .add("levels_at_most", coarse.levels).add("min_noise_ratio", coarse.min_noise_ratio);
+  std::vector<JsonObject> ran;
+  for (const CoarseLevelReport& level : levels) {
+    ran.emplace_back();
+    ran.back().add("points", level.points).add("steps", level.steps);
+  }
+  j.add("levels", ran);
+  return j;
+}
+
 }  // namespace pointfair::cli

@@ -5,6 +5,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "json_writer.hpp"
 #include "method_options.hpp"
@@ -58,5 +59,8 @@ JsonObject parameters_json(const SmoothParams& params, int k, double eps, double
 
 /// The finish's parameters (SmoothParams::finish) as a JSON object; "enabled" says whether it runs.
 JsonObject finish_json(const SmoothParams& params);
+
+/// The coarse level's parameters (SmoothParams::coarse) and the levels that ran.
+JsonObject coarse_level_json(const CoarseLevelParams& coarse, const std::vector<CoarseLevelReport>& levels);
 
 }  // namespace pointfair::cli

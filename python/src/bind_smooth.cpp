@@ -1,0 +1,180 @@
+#include "bind_smooth.hpp"
+
+#include <pybind11/numpy.h>
+
+#include <string>
+#include <vector>
+
+#include "arrays.hpp"
+#include "errors.hpp"
+#include "options.hpp"
+#include "cli/out_of_core.hpp"
+#include "cli/smooth_point_file.hpp"
+#include "pointfair/common/params_error.hpp"
+#include "pointfair/io/atomic_file.hpp"
+
+namespace pointfair::python {
+namespace {
+
+// Raises the pending Python exception (KeyboardInterrupt from Ctrl-C) in C++. Needs the GIL.
+void check_signals() {
+  if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+}
+
+// SmoothOptions::progress of a run with the GIL released: takes the GIL, lets Python run its
+// signal handlers (Ctrl-C raises KeyboardInterrupt there, which ends the run) and calls
+// `callback(stage, done, total)` if there is one; whatever it raises ends the run and reaches
+// the caller. `callback` is borrowed: the call's keyword arguments hold it.
+std::function<void(SmoothStage, std::size_t, std::size_t)> progress_hook(const py::object& callback) {
+  PyObject* const function = callback.is_none() ? nullptr : callback.ptr();
+  return [function](SmoothStage stage, std::size_t done, std::size_t total) {
+    const py::gil_scoped_acquire gil;
+    check_signals();
+    if (function != nullptr) py::handle{function}(std::string(to_string(stage)), done, total);
+  };
+}
+
+std::function<void()> signal_hook() {
+  return [] {
+    const py::gil_scoped_acquire gil;
+    check_signals();
+  };
+}
+
+py::array_t<double> smooth_points(const py::handle& points, const py::kwargs& kwargs) {
+  const Options o = parse_options(kwargs, OptionSet::Smooth, "pointfair.smooth");
+  const PointsIn in = points_in(points, "points");
+  require_finite(in.points, "points");
+  PointsIn reference;
+  if (!o.neighbors_from.is_none()) {
+    reference = points_in(o.neighbors_from, "neighbors_from");
+    if (reference.points.size() != in.points.size())
+      throw ParamError("neighbors_from: has " + std::to_string(reference.points.size()) + " points, points has " +
+                       std::to_string(in.points.size()) + " (it needs the same points in the same order)");
+    require_finite(reference.points, "neighbors_from");
+  }
+  SmoothOptions options;
+  options.neighbor_reference = reference.points;
+  options.progress = progress_hook(o.progress);
+  std::vector<Vec3> positions;
+  {
+    const py::gil_scoped_release release;
+    const ThreadCount threads(o.threads_given, o.output.threads);
+    // The input's one copy: the buffer the flow works in, which becomes the result.
+    positions.assign(in.points.begin(), in.points.end());
+    smooth(positions, o.params, options);
+  }
+  return points_out(std::move(positions));
+}
+
+py::dict curvature(const py::handle& points, const py::kwargs& kwargs) {
+  const Options o = parse_options(kwargs, OptionSet::Curvature, "pointfair.curvature");
+  const PointsIn in = points_in(points, "points");
+  require_finite(in.points, "points");
+  PointAttributes a;
+  NeighborParams neighbor_params;
+  double eps = 0.0, lambda = 0.0;
+  {
+    // As `pointfair curvature`: the neighbourhoods of the resolved k, the flow's lambda, the
+    // attributes.
+    const py::gil_scoped_release release;
+    const ThreadCount threads(o.threads_given, o.output.threads);
+    neighbor_params = resolve_k(o.params, in.points).neighbors;
+    const Neighborhoods neighborhoods = build_neighborhoods(in.points, neighbor_params);
+    signal_hook()();
+    eps = neighborhoods.eps;
+    lambda = resolve_lambda(in.points, neighborhoods, o.params.flow);
+    a = compute_attributes(in.points, neighborhoods, o.params.flow, lambda);
+  }
+  std::vector<std::uint8_t> feature(a.feature.size());
+  for (std::size_t i = 0; i < feature.size(); ++i) feature[i] = static_cast<std::uint8_t>(a.feature[i]);
+  py::dict out;
+  out["normals"] = points_out(std::move(a.normal));
+  out["k1"] = column_out(std::move(a.k1));
+  out["k2"] = column_out(std::move(a.k2));
+  out["d1"] = points_out(std::move(a.d1));
+  out["d2"] = points_out(std::move(a.d2));
+  out["mean_curvature"] = column_out(std::move(a.mean_curvature));
+  out["laplacian_norm"] = column_out(std::move(a.laplacian_norm));
+  out["feature_class"] = column_out(std::move(feature));
+  out["k"] = neighbor_params.k;
+  out["eps"] = eps;
+  out["lambda"] = lambda;
+  out["degenerate"] = a.degenerate;
+  return out;
+}
+
+py::dict smooth_file(const std::string& input, const std::string& output, const py::kwargs& kwargs) {
+  Options o = parse_options(kwargs, OptionSet::File, "pointfair.smooth_file");
+  // The command's rule (command_smooth_tiled.cpp): containers, and point files whose in-core
+  // run does not fit the budget, go out of core.
+  const char* const out_of_core_hint =
+      " needs the out-of-core run, which pointfair.smooth_file does not run: use the command "
+      "`pointfair smooth IN OUT --memory-budget SIZE` (docs/out-of-core.md)";
+  if (cli::is_container_path(input) || cli::is_container_path(output))
+    throw_not_implemented("an HDF5 container (" + (cli::is_container_path(input) ? input : output) + ")" +
+                          out_of_core_hint);
+  io::require_output_path(output);
+  cli::PointFileSmooth run;
+  run.input = input;
+  run.output = output;
+  run.reference = o.reference;
+  run.params = o.params;
+  run.output_options = o.output;
+  run.output_options.quiet = true;
+  run.progress = progress_hook(o.progress);
+  run.check = signal_hook();
+  cli::PointFileSmoothResult result;
+  {
+    const py::gil_scoped_release release;
+    if (o.memory_budget) {
+      const std::uint64_t points = cli::count_points(input);
+      if (!cli::fits_in_core(points, o.params, *o.memory_budget)) {
+        const py::gil_scoped_acquire gil;
+        throw_not_implemented(input + ": " + std::to_string(points) + " points under a memory budget of " +
+                              std::to_string(*o.memory_budget) + " bytes" + out_of_core_hint);
+      }
+    }
+    const ThreadCount threads(o.threads_given, o.output.threads);
+    result = cli::smooth_point_file(run);
+  }
+  return py::module_::import("json").attr("loads")(result.json.str());
+}
+
+}  // namespace
+
+void bind_smooth(py::module_& m) {
+  m.def("smooth", &smooth_points, py::arg("points"),
+        R"doc(smooth(points, **options) -> numpy.ndarray
+
+Denoises (N, 3) float64 positions with the anisotropic mean curvature flow (Lange & Polthier
+2005) and the quadric finish, as `pointfair smooth` does, and returns the new (N, 3) array.
+
+options: the command's method and finish options in snake_case (k, eps, eps_factor, steps,
+tau, flow, cutoff, cutoff_origin, lambda_, lambda_schedule, stop_lambda_ratio, stop_plateau,
+shrink_compensation, lambda_factor, constrain_normal, normal, robust_seed, robust_iterations,
+robust_bound, rebuild_every, features, edge_quotient, feature_threshold, feature_turn,
+feature_gated, weights, density_floor, move, quadric_finish, quadric_k, quadric_angle,
+quadric_degree, quadric_passes, quadric_iterations, quadric_curvature_reach, quadric_min_k),
+paper=True (the --paper preset; the other options override it), threads (0: all cores),
+neighbors_from ((N, 3) positions to build the neighbourhoods from), progress (called as
+progress(stage, done, total) with stage 'steps' or 'finish'; an exception it raises ends the
+run). Ctrl-C ends the run at the next step. The GIL is released while it runs.)doc");
+  m.def("curvature", &curvature, py::arg("points"),
+        R"doc(curvature(points, **options) -> dict
+
+Per point normal, principal curvatures k1 >= k2 and directions d1, d2, mean curvature H
+('mean_curvature'), |A| ('laplacian_norm') and feature class (0 smooth, 1 edge, 2 corner), as
+`pointfair curvature` computes them; also the k, eps and lambda used and the number of
+degenerate points. options: the command's method options in snake_case, paper, threads.)doc");
+  m.def("smooth_file", &smooth_file, py::arg("input"), py::arg("output"),
+        R"doc(smooth_file(input, output, memory_budget=None, **options) -> dict
+
+Runs `pointfair smooth INPUT OUTPUT` in core and returns its --json summary. options: the
+command's options in snake_case (as smooth(), plus colour_by, colour_clip, attributes,
+encoding, neighbors_from=path), progress. With memory_budget (bytes, or '256M', '2G'), a cloud
+that does not fit it, and any HDF5 container, raise NotImplementedError: the out-of-core run is
+the command's.)doc");
+}
+
+}  // namespace pointfair::python
