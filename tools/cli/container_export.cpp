@@ -53,6 +53,30 @@ void for_each_scalar_block(const fs::path& container, ColourBy by,
 }
 
 // An order-preserving key of a finite double.
+using ChunkVisitor = std::function<void(const io::PointTable&)>;
+
+// A LAS output from a float source (no integer grid of its own) whose grid the options do not
+// give (--scale and --offset): the grid depends on the bounds of every point, so a first pass
+// measures them, and the LAS writer streams with that grid (the same bytes as writing the
+// whole cloud at once).
+bool needs_las_bounds(const fs::path& output, const io::PointTable& schema, const OutputOptions& out,
+                      std::uint64_t points) {
+  return io::point_format_of(output) == io::PointFormat::Las && !schema.quantization &&
+         !(out.las.scale && out.las.offset) && points > 0;
+}
+
+// las_quantization_for the bounds of the chunks `for_each_chunk` calls its visitor with.
+io::PositionQuantization las_grid_of(const std::function<void(const ChunkVisitor&)>& for_each_chunk) {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for_each_chunk([&](const io::PointTable& chunk) {
+    for (const Vec3& p : chunk.positions) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+  });
+  return io::las_quantization_for(lo, hi);
+}
+
 std::uint64_t key_of(double v) {
   const auto bits = std::bit_cast<std::uint64_t>(v);
   return (bits >> 63) != 0 ? ~bits : bits | (std::uint64_t{1} << 63);
@@ -162,21 +186,14 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
   add_columns(schema, PointAttributes{});
   summary.points = *reader.count();
   const std::size_t chunk_points = reader.chunk_points_for(options.memory_budget);
-  if (io::point_format_of(output) == io::PointFormat::Las && !schema.quantization && !(out.las.scale && out.las.offset) &&
-      summary.points > 0) {
-    // LAS from a float source: the integer grid depends on the bounds of every point, so a
-    // first pass (in row order) measures them, and the LAS writer streams with that grid (the
-    // same bytes as writing the whole cloud at once).
+  if (needs_las_bounds(output, schema, out, summary.points)) {
+    // A first pass (in row order) over the container.
     tiles::ContainerChunkReader first(container, {.original_order = false,
                                                   .result_positions = !options.input_positions});
-    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-    io::PointTable chunk;
-    while (first.read(chunk, chunk_points) > 0)
-      for (const Vec3& p : chunk.positions) {
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
-      }
-    schema.quantization = io::las_quantization_for(lo, hi);
+    schema.quantization = las_grid_of([&](const ChunkVisitor& visit) {
+      io::PointTable chunk;
+      while (first.read(chunk, chunk_points) > 0) visit(chunk);
+    });
   }
   io::WriteOptions write;
   write.input = input;
@@ -239,18 +256,7 @@ SelectedExportSummary export_selected(const fs::path& container, const fs::path&
     }
     if (run && run->read(part, 1) != 0) throw changed();
   };
-  if (io::point_format_of(output) == io::PointFormat::Las && !schema.quantization && !(out.las.scale && out.las.offset) &&
-      summary.points > 0) {
-    // As export_container: a first pass measures the bounds of the LAS grid.
-    Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-    for_each_chunk([&](const io::PointTable& chunk) {
-      for (const Vec3& p : chunk.positions) {
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
-      }
-    });
-    schema.quantization = io::las_quantization_for(lo, hi);
-  }
+  if (needs_las_bounds(output, schema, out, summary.points)) schema.quantization = las_grid_of(for_each_chunk);
   io::WriteOptions write;
   write.input = source;
   write.ply_encoding = ply_encoding(out.encoding);
