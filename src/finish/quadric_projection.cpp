@@ -13,6 +13,8 @@
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/flow/euler_step.hpp"
+#include "pointfair/neighbors/knn_grid.hpp"
+#include "pointfair/neighbors/spatial_order.hpp"
 #include "frames/robust_plane_fit.hpp"
 
 namespace pointfair {
@@ -406,6 +408,11 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
           "finish_with_quadrics: one anchor per point (" + std::to_string(anchors.size()) + " vs " +
               std::to_string(n) + ")");
   constexpr double inf = std::numeric_limits<double>::infinity();
+  // The fits read each neighbour's position and normal: in the caller's order (a scan's, or
+  // random) those reads miss the cache at every neighbour. They run on the cloud stored in
+  // Morton order instead (`stored`, row s holding point order[s]), with every list built as
+  // before in the caller's indices (the canonical tie rule) and relabelled to rows: each
+  // point's fit sees the same neighbours in the same order, so no bit of the result changes.
   // The k-long lists of every point at once would hold 4 k bytes a point (800 at k 200): the
   // normals come from lists as long as they read (the first entries of the k-long rows, as
   // the canonical order makes them), the fits from the k-long lists of one block of points at
@@ -413,30 +420,45 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
   NeighborParams near;
   near.k = std::min(params.k, params.normal_neighbors);
   near.eps = inf;
-  std::vector<Vec3> out(n);
-  std::vector<Index> queries;
+  const std::vector<Index> order = spatial_order(points);
+  const std::vector<Index> row_of = inverse_permutation(order);
+  std::vector<Vec3> stored(n), out(n), block_anchors;
+  std::vector<Index> queries, stored_queries;
+  Neighborhoods rows;
   for (int pass = 0; pass < params.passes; ++pass) {
-    const std::vector<Vec3> normals = neighbourhood_normals(points, build_neighborhoods(points, near), params);
+    const bool last = pass + 1 == params.passes;
+    stored = gather(points, order);
+    const std::vector<Vec3> normals =
+        neighbourhood_normals(stored, build_reordered_neighborhoods(points, near, order, row_of), params);
+    // One grid a pass for every block's queries (a grid a block cost a sort of the whole
+    // cloud per kQuadricBlock points: quadratic in the cloud's size).
+    const CellGrid grid = build_cell_grid(points, params.k, inf);
     for (std::size_t first = 0; first < n; first += kQuadricBlock) {
       const std::size_t count = std::min(kQuadricBlock, n - first);
-      queries.resize(count);
-      std::iota(queries.begin(), queries.end(), static_cast<Index>(first));
-      const Neighborhoods rows = build_neighborhoods(points, queries, params.k, inf);
-      const bool last = pass + 1 == params.passes;
+      queries.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
+                     order.begin() + static_cast<std::ptrdiff_t>(first + count));
+      grid_neighborhoods(grid, queries, params.k, inf, rows);
+      relabel_neighborhoods_in_place(rows, row_of);
+      stored_queries.resize(count);  // row r of the block: stored point first + r
+      std::iota(stored_queries.begin(), stored_queries.end(), static_cast<Index>(first));
+      if (last && !anchors.empty()) {
+        block_anchors.resize(count);
+        for (std::size_t r = 0; r < count; ++r) block_anchors[r] = anchors[queries[r]];
+      }
       // The block's rows in parts between progress calls (each part its own rows: the same
       // bits as the whole block at once).
       for (std::size_t part = 0; part < count; part += kQuadricProgressBlock) {
         const std::size_t size = std::min(kQuadricProgressBlock, count - part);
         const NeighborhoodsView part_rows = NeighborhoodsView(rows).rows(part, size);
         project_rows_to_quadrics(
-            points, normals, part_rows, std::span<const Index>(queries).subspan(part, size), params,
-            std::span<Vec3>(out).subspan(first + part, size),
-            last && !anchors.empty() ? anchors.subspan(first + part, size) : std::span<const Vec3>{});
+            stored, normals, part_rows, std::span<const Index>(stored_queries).subspan(part, size), params, std::span<Vec3>(out).subspan(first + part, size),
+            last && !anchors.empty() ? std::span<const Vec3>(block_anchors).subspan(part, size)
+                                     : std::span<const Vec3>{});
         if (progress)
           progress(static_cast<std::size_t>(pass) * n + first + part + size, n * static_cast<std::size_t>(params.passes));
       }
     }
-    points.swap(out);
+    for (std::size_t s = 0; s < n; ++s) points[order[s]] = out[s];
   }
 }
 

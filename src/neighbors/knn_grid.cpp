@@ -1070,11 +1070,11 @@ class Search {
   KnnKernel kernel_;
 };
 
-Neighborhoods search(const CellGrid& g, const Queries& q, int k, double eps, const KdTree* tree,
-                     std::span<double> last_d2) {
+// The rows of `q` into `out` (its arrays' storage reused).
+void search(const CellGrid& g, const Queries& q, int k, double eps, const KdTree* tree,
+            std::span<double> last_d2, Neighborhoods& out) {
   require(k >= 1 && k <= 1024, "k must be in 1..1024, got " + std::to_string(k));
   require(eps > 0.0, "eps must be positive");
-  Neighborhoods out;
   out.stride = k;
   out.eps = eps;
   detail::assign_huge(out.indices, q.size() * static_cast<std::size_t>(k), Index{0});
@@ -1096,20 +1096,28 @@ Neighborhoods search(const CellGrid& g, const Queries& q, int k, double eps, con
     std::erase_if(rest, [&](Index e) { return unresolved[e] == 0; });
   }
   search.fallback(rest, tree);
-  return out;
 }
 
 }  // namespace
 
 Neighborhoods grid_neighborhoods(const CellGrid& grid, std::span<const Index> queries, int k,
                                  double eps, const KdTree* tree) {
-  return search(grid, some_points(grid, queries), k, eps, tree, {});
+  Neighborhoods out;
+  grid_neighborhoods(grid, queries, k, eps, out, tree);
+  return out;
+}
+
+void grid_neighborhoods(const CellGrid& grid, std::span<const Index> queries, int k, double eps,
+                        Neighborhoods& out, const KdTree* tree) {
+  search(grid, some_points(grid, queries), k, eps, tree, {}, out);
 }
 
 Neighborhoods grid_neighborhoods(const CellGrid& grid, int k, double eps,
                                  std::span<const Index> row_of, std::span<double> last_d2) {
   require(row_of.empty() || row_of.size() == grid.size(), "row_of must hold one row per point");
-  return search(grid, every_point(grid, row_of), k, eps, nullptr, last_d2);
+  Neighborhoods out;
+  search(grid, every_point(grid, row_of), k, eps, nullptr, last_d2, out);
+  return out;
 }
 
 }  // namespace pointfair

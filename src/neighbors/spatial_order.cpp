@@ -84,6 +84,11 @@ Neighborhoods build_reordered_neighborhoods(std::span<const Vec3> points, const 
           "build_reordered_neighborhoods: order and row_of must hold one entry per point");
   // Row s is point order[s]: its list goes to row row_of[order[s]] = s.
   Neighborhoods nb = build_neighborhoods(points, params, row_of);
+  relabel_neighborhoods_in_place(nb, row_of);
+  return nb;
+}
+
+void relabel_neighborhoods_in_place(Neighborhoods& nb, std::span<const Index> row_of) {
   const auto stride = static_cast<std::size_t>(nb.stride);
   parallel_for(nb.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t s = begin; s < end; ++s) {
@@ -91,7 +96,6 @@ Neighborhoods build_reordered_neighborhoods(std::span<const Vec3> points, const 
       for (std::size_t j = 0; j < nb.counts[s]; ++j) row[j] = row_of[row[j]];
     }
   }, 8192);
-  return nb;
 }
 
 namespace {

@@ -239,6 +239,30 @@ TEST(QuadricProjection, BlockedListsGiveTheWholeCloudsBits) {
   EXPECT_EQ(p, whole);
 }
 
+// The same with two passes and anchors: each pass's lists, normals and fits (made in Morton
+// storage order, relabelled) give the bits of a plain pass over the cloud in its own order.
+TEST(QuadricProjection, PassesWithAnchorsGiveThePlainPassesBits) {
+  std::vector<Vec3> p = sample_sphere(kQuadricBlock + kQuadricBlock / 5, 1.0, 23).points;
+  add_noise(p, 0.003, 24);
+  std::vector<Vec3> anchors = p;
+  add_noise(anchors, 0.001, 25);
+  QuadricProjectionParams params;
+  params.k = 24;
+  params.min_k = 12;
+  params.passes = 2;
+  std::vector<Vec3> plain = p;
+  for (int pass = 0; pass < params.passes; ++pass) {
+    const Neighborhoods nb = quadric_neighborhoods(plain, params);
+    const std::vector<Vec3> normals = neighbourhood_normals(plain, nb, params);
+    std::vector<Vec3> next(plain.size());
+    project_rows_to_quadrics(plain, normals, nb, {}, params, next,
+                             pass + 1 == params.passes ? std::span<const Vec3>(anchors) : std::span<const Vec3>{});
+    plain.swap(next);
+  }
+  finish_with_quadrics(p, params, anchors);
+  EXPECT_EQ(p, plain);
+}
+
 TEST(QuadricProjection, TooFewPointsStayPut) {
   std::vector<Vec3> p = {Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(0, 1, 0), Vec3(1, 1, 0.1)};
   const std::vector<Vec3> before = p;

@@ -65,6 +65,10 @@ CellGrid build_cell_grid(std::span<const Vec3> points, int k, double eps);
 /// the grid scans or builds a tree when needed.
 Neighborhoods grid_neighborhoods(const CellGrid& grid, std::span<const Index> queries, int k,
                                  double eps, const KdTree* tree = nullptr);
+/// The same rows into `out`, whose arrays' storage is reused (a caller that asks for block
+/// after block of rows allocates them once).
+void grid_neighborhoods(const CellGrid& grid, std::span<const Index> queries, int k, double eps,
+                        Neighborhoods& out, const KdTree* tree = nullptr);
 
 /// Every point's row: row p, or row row_of[p] when `row_of` (a permutation of 0..n-1) is given.
 /// Indices in the lists refer to grid.points either way. If `last_d2` is given (one value per

@@ -35,6 +35,10 @@ Neighborhoods build_reordered_neighborhoods(std::span<const Vec3> points, const 
                                             std::span<const Index> order,
                                             std::span<const Index> row_of);
 
+/// Every index j in the lists replaced by row_of[j] (rows and list order kept): lists of a
+/// cloud's points as the lists of its reordered copy.
+void relabel_neighborhoods_in_place(Neighborhoods& nb, std::span<const Index> row_of);
+
 /// Reorders `values` in place so that values[s] becomes the old values[order[s]] (one bit
 /// of scratch per point). `inverse` undoes it.
 void permute_in_place(std::vector<Vec3>& values, std::span<const Index> order);
