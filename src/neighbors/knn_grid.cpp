@@ -681,6 +681,7 @@ struct Scratch {
   std::vector<double> large_d2;
   std::vector<Index> large_id;
   std::vector<Entry> large;
+  std::vector<std::uint32_t> bucket_start;  // bucket_sort's counts, then starts
   std::vector<Index> pending, still;
   double guess = 0.0;  // squared distance: the first selection threshold
 };
@@ -959,14 +960,43 @@ class Search {
     s.large_id.resize(c + 8);
     pack_within(d2, ids, m, t, s.large_d2.data(), s.large_id.data());
     s.large.resize(c);
-    for (std::size_t j = 0; j < c; ++j) s.large[j] = {s.large_d2[j], s.large_id[j]};
     const auto closer = [](const Entry& a, const Entry& b) { return a.d2 < b.d2 || (a.d2 == b.d2 && a.id < b.id); };
-    const auto end = s.large.begin() + static_cast<std::ptrdiff_t>(found);
-    std::nth_element(s.large.begin(), end, s.large.end(), closer);
-    std::sort(s.large.begin(), end, closer);
+    if (t > 0.0 && t < kInf) {
+      bucket_sort(s, t, c);
+    } else {
+      for (std::size_t j = 0; j < c; ++j) s.large[j] = {s.large_d2[j], s.large_id[j]};
+      const auto end = s.large.begin() + static_cast<std::ptrdiff_t>(found);
+      std::nth_element(s.large.begin(), end, s.large.end(), closer);
+      std::sort(s.large.begin(), end, closer);
+    }
     for (std::size_t j = 0; j < found; ++j) {
       s.large_d2[j] = s.large[j].d2;
       s.large_id[j] = s.large[j].id;
+    }
+  }
+
+  // The c packed candidates (s.large_d2, s.large_id; each d2 in [0, t]) into s.large in the
+  // order of `closer` in select_nearest: a counting sort into about one bucket a candidate by
+  // d2 / t (monotone in d2, so only candidates in one bucket can be out of order), then an
+  // insertion sort, which only has those few to move. Linear where the comparison sorts it
+  // replaces spent most of a large-k search in mispredicted branches.
+  static void bucket_sort(Scratch& s, double t, std::size_t c) {
+    const std::size_t buckets = std::max<std::size_t>(c, 1);
+    const double scale = static_cast<double>(buckets) / t;
+    const auto bucket_of = [&](double d2) {
+      return std::min(buckets - 1, static_cast<std::size_t>(d2 * scale));
+    };
+    s.bucket_start.assign(buckets + 1, 0);
+    for (std::size_t j = 0; j < c; ++j) ++s.bucket_start[bucket_of(s.large_d2[j]) + 1];
+    for (std::size_t b = 0; b < buckets; ++b) s.bucket_start[b + 1] += s.bucket_start[b];
+    for (std::size_t j = 0; j < c; ++j)
+      s.large[s.bucket_start[bucket_of(s.large_d2[j])]++] = {s.large_d2[j], s.large_id[j]};
+    for (std::size_t j = 1; j < c; ++j) {
+      const Entry e = s.large[j];
+      std::size_t i = j;
+      for (; i > 0 && (e.d2 < s.large[i - 1].d2 || (e.d2 == s.large[i - 1].d2 && e.id < s.large[i - 1].id)); --i)
+        s.large[i] = s.large[i - 1];
+      s.large[i] = e;
     }
   }
 
