@@ -15,6 +15,7 @@
 #include "pointfair/flow/euler_step.hpp"
 #include "pointfair/neighbors/knn_grid.hpp"
 #include "pointfair/neighbors/spatial_order.hpp"
+#include "common/select_kth.hpp"
 #include "frames/robust_plane_fit.hpp"
 
 namespace pointfair {
@@ -150,10 +151,9 @@ template <int Degree>
   height = c[0];
   if (at != nullptr) *height_at = monomials<Degree>(at[0] * inv_reach, at[1] * inv_reach).dot(c);
   if (scale != nullptr) {
-    for (std::size_t j = 0; j < count; ++j) s.plane_scratch[j] = std::abs(residual(j, c));
-    const auto mid = s.plane_scratch.begin() + static_cast<std::ptrdiff_t>(count / 2);
-    std::nth_element(s.plane_scratch.begin(), mid, s.plane_scratch.begin() + static_cast<std::ptrdiff_t>(count));
-    *scale = 1.4826 * *mid;
+    for (std::size_t j = 0; j < count; ++j) s.residuals[j] = std::abs(residual(j, c));
+    *scale = 1.4826 * detail::select_kth(std::span<const double>(s.residuals.data(), count), count / 2,
+                                         std::span<double>(s.plane_scratch.data(), count));
   }
   if (second != nullptr) {
     const double per_reach2 = inv_reach * inv_reach;

@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <span>
 
+#include "common/select_kth.hpp"
 #include "covariance_normal.hpp"
 #include "pointfair/frames/robust_frame.hpp"
 
@@ -54,10 +55,8 @@ namespace pointfair::detail {
 [[gnu::always_inline]] inline void biweights(std::span<const double> residuals, double inlier_bound, double floor,
                                              std::span<double> weights, std::span<double> scratch) {
   const std::size_t count = residuals.size();
-  for (std::size_t j = 0; j < count; ++j) scratch[j] = residuals[j];
-  const auto mid = scratch.begin() + static_cast<std::ptrdiff_t>(count / 2);
-  std::nth_element(scratch.begin(), mid, scratch.begin() + static_cast<std::ptrdiff_t>(count));
-  const double bound = inlier_bound * std::max(1.4826 * *mid, floor);
+  const double median = select_kth(residuals, count / 2, scratch);
+  const double bound = inlier_bound * std::max(1.4826 * median, floor);
   for (std::size_t j = 0; j < count; ++j) {
     const double u = residuals[j] / bound;
     weights[j] = u < 1.0 ? (1.0 - u * u) * (1.0 - u * u) : 0.0;
