@@ -113,9 +113,7 @@ int run_smooth_out_of_core(const Args& args) {
   run.select = select;
   run.output_options = output;
   run.started = t_start;
-  run.note = [quiet = output.quiet](std::string_view text) {
-    if (!quiet) std::fprintf(stderr, "%.*s\n", static_cast<int>(text.size()), text.data());
-  };
+  run.note = stderr_notes(output.quiet);
   run.progress = [&](const OutOfCoreProgress& at) {
     if (at.importing) {
       throw_if_interrupted();

@@ -28,8 +28,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
 // The run's folder goes when the run is done; when the run fails, only if this run made it
 // and it holds nothing to resume (or the run cannot be continued, or keeps nothing). An
 // interrupted run's folder that a resume found stays whatever happens before its end. A
