@@ -198,11 +198,13 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
   // From here an interrupted or failed run keeps what it committed, for a resume; or, when it
   // keeps nothing, loses the partial file it made.
   guard.keep = run.keep_interrupted;
-  if (!run.keep_interrupted && !fs::exists(tiles::partial_name(run_output))) guard.partial = tiles::partial_name(run_output);
+  std::error_code ec;
+  if (!run.keep_interrupted && !fs::exists(tiles::partial_name(run_output), ec))
+    guard.partial = tiles::partial_name(run_output);
 
   ooc.attributes = true;
-  // A signal stops the run after the phase's current tile or step: what is committed stays in
-  // the partial file, and a resume continues from it (as after a kill).
+  // What keeps the committed steps when `progress` stops the run (as after a kill), for a
+  // resume to continue.
   const std::string kept_in = !run.keep_interrupted ? std::string()
                               : work.empty()        ? tiles::partial_name(run_output).filename().string()
                                                     : work.filename().string();
@@ -226,14 +228,12 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
                        tiles::size_text(tiles::budget_to_name(budget->needed)) + " or more" +
                        (work_existed ? " (the interrupted run stays in " + work.filename().string() + ")" : ""));
     }
-    std::error_code ec;
     if (budget == nullptr || kept_in.empty() || !fs::exists(tiles::partial_name(run_output), ec)) throw;
     throw ParamError(std::string(e.what()) + " (the run so far is kept in " + kept_in +
                      ": add --resume with a larger --memory-budget to continue it, or remove it)");
   } catch (const io::IoError& e) {
     // A failed read or write (a full disk, a disk that fails to sync): a container run keeps
     // the steps committed before it in its partial file, and says so.
-    std::error_code ec;
     if (kept_in.empty() || !fs::exists(tiles::partial_name(run_output), ec)) throw;
     throw io::IoError(std::string(e.what()) + " (the steps committed so far are kept in " + kept_in +
                       ": once the cause is fixed, run the same command with --resume to continue)");
