@@ -2,13 +2,14 @@
 
 #include <pybind11/numpy.h>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
 #include "arrays.hpp"
 #include "errors.hpp"
 #include "options.hpp"
-#include "cli/out_of_core.hpp"
+#include "cli/smooth_out_of_core_file.hpp"
 #include "cli/smooth_point_file.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/io/atomic_file.hpp"
@@ -21,16 +22,31 @@ void check_signals() {
   if (PyErr_CheckSignals() != 0) throw py::error_already_set();
 }
 
-// SmoothOptions::progress of a run with the GIL released: takes the GIL, lets Python run its
-// signal handlers (Ctrl-C raises KeyboardInterrupt there, which ends the run) and calls
+// A progress hook of a run with the GIL released: takes the GIL, lets Python run its signal
+// handlers (Ctrl-C raises KeyboardInterrupt there, which ends the run) and calls
 // `callback(stage, done, total)` if there is one; whatever it raises ends the run and reaches
 // the caller. `callback` is borrowed: the call's keyword arguments hold it.
-std::function<void(SmoothStage, std::size_t, std::size_t)> progress_hook(const py::object& callback) {
+std::function<void(const std::string&, std::uint64_t, std::uint64_t)> stage_hook(const py::object& callback) {
   PyObject* const function = callback.is_none() ? nullptr : callback.ptr();
-  return [function](SmoothStage stage, std::size_t done, std::size_t total) {
+  return [function](const std::string& stage, std::uint64_t done, std::uint64_t total) {
     const py::gil_scoped_acquire gil;
     check_signals();
-    if (function != nullptr) py::handle{function}(std::string(to_string(stage)), done, total);
+    if (function != nullptr) py::handle{function}(stage, done, total);
+  };
+}
+
+// SmoothOptions::progress: the stage is 'steps' or 'finish'.
+std::function<void(SmoothStage, std::size_t, std::size_t)> progress_hook(const py::object& callback) {
+  return [hook = stage_hook(callback)](SmoothStage stage, std::size_t done, std::size_t total) {
+    hook(std::string(to_string(stage)), done, total);
+  };
+}
+
+// The out-of-core run's progress: the stage is 'import' while the input is imported, else the
+// run's phase ('k', 'eps', 'neighbors', 'steps', 'finish', 'attributes').
+std::function<void(const cli::OutOfCoreProgress&)> out_of_core_progress_hook(const py::object& callback) {
+  return [hook = stage_hook(callback)](const cli::OutOfCoreProgress& at) {
+    hook(at.importing ? "import" : at.phase == "step" ? "steps" : std::string(at.phase), at.done, at.total);
   };
 }
 
@@ -104,17 +120,7 @@ py::dict curvature(const py::handle& points, const py::kwargs& kwargs) {
   return out;
 }
 
-py::dict smooth_file(const std::string& input, const std::string& output, const py::kwargs& kwargs) {
-  Options o = parse_options(kwargs, OptionSet::File, "pointfair.smooth_file");
-  // The command's rule (command_smooth_tiled.cpp): containers, and point files whose in-core
-  // run does not fit the budget, go out of core.
-  const char* const out_of_core_hint =
-      " needs the out-of-core run, which pointfair.smooth_file does not run: use the command "
-      "`pointfair smooth IN OUT --memory-budget SIZE` (docs/out-of-core.md)";
-  if (cli::is_container_path(input) || cli::is_container_path(output))
-    throw_not_implemented("an HDF5 container (" + (cli::is_container_path(input) ? input : output) + ")" +
-                          out_of_core_hint);
-  io::require_output_path(output);
+cli::JsonObject smooth_file_in_core(const std::string& input, const std::string& output, const Options& o) {
   cli::PointFileSmooth run;
   run.input = input;
   run.output = output;
@@ -124,21 +130,38 @@ py::dict smooth_file(const std::string& input, const std::string& output, const 
   run.output_options.quiet = true;
   run.progress = progress_hook(o.progress);
   run.check = signal_hook();
-  cli::PointFileSmoothResult result;
+  return cli::smooth_point_file(run).json;
+}
+
+// As `pointfair smooth IN OUT --memory-budget B`, but a run that fails or is interrupted
+// leaves nothing behind (there is no resume here).
+cli::JsonObject smooth_file_out_of_core(const std::string& input, const std::string& output, const Options& o) {
+  cli::OutOfCoreFileSmooth run;
+  run.input = input;
+  run.output = output;
+  run.params = o.params;
+  if (o.memory_budget) run.options.memory_budget = *o.memory_budget;
+  run.options.neighbor_reference = o.reference;
+  run.output_options = o.output;
+  run.output_options.quiet = true;
+  run.keep_interrupted = false;
+  run.progress = out_of_core_progress_hook(o.progress);
+  return cli::smooth_out_of_core_file(run).json;
+}
+
+py::dict smooth_file(const std::string& input, const std::string& output, const py::kwargs& kwargs) {
+  const Options o = parse_options(kwargs, OptionSet::File, "pointfair.smooth_file");
+  io::require_output_path(output);
+  cli::JsonObject json;
   {
     const py::gil_scoped_release release;
-    if (o.memory_budget) {
-      const std::uint64_t points = cli::count_points(input);
-      if (!cli::fits_in_core(points, o.params, *o.memory_budget)) {
-        const py::gil_scoped_acquire gil;
-        throw_not_implemented(input + ": " + std::to_string(points) + " points under a memory budget of " +
-                              std::to_string(*o.memory_budget) + " bytes" + out_of_core_hint);
-      }
-    }
+    // The command's rule: containers, and point files whose in-core run does not fit the
+    // budget, go out of core.
+    const bool out_of_core = cli::runs_out_of_core(input, output, o.params, o.memory_budget);
     const ThreadCount threads(o.threads_given, o.output.threads);
-    result = cli::smooth_point_file(run);
+    json = out_of_core ? smooth_file_out_of_core(input, output, o) : smooth_file_in_core(input, output, o);
   }
-  return py::module_::import("json").attr("loads")(result.json.str());
+  return py::module_::import("json").attr("loads")(json.str());
 }
 
 }  // namespace
@@ -170,11 +193,16 @@ degenerate points. options: the command's method options in snake_case, paper, t
   m.def("smooth_file", &smooth_file, py::arg("input"), py::arg("output"),
         R"doc(smooth_file(input, output, memory_budget=None, **options) -> dict
 
-Runs `pointfair smooth INPUT OUTPUT` in core and returns its --json summary. options: the
-command's options in snake_case (as smooth(), plus colour_by, colour_clip, attributes,
-encoding, neighbors_from=path), progress. With memory_budget (bytes, or '256M', '2G'), a cloud
-that does not fit it, and any HDF5 container, raise NotImplementedError: the out-of-core run is
-the command's.)doc");
+Runs `pointfair smooth INPUT OUTPUT` and returns its --json summary. options: the command's
+options in snake_case (as smooth(), plus colour_by, colour_clip, attributes, encoding,
+neighbors_from=path), progress. As the command, it runs out of core (tiles streamed through an
+HDF5 file beside OUTPUT, the same bits as in core) for an HDF5 container input or output and
+for a cloud whose in-core run does not fit memory_budget (bytes, or '256M', '2G'; 256M for a
+container without one); the summary then has 'out_of_core': True, 'tiles' and the run's memory
+figures. progress(stage, done, total) is called with stage 'steps' or 'finish' in core, and
+'import', 'k', 'eps', 'neighbors', 'steps', 'finish' or 'attributes' out of core. A run that
+fails or is interrupted (Ctrl-C raises KeyboardInterrupt) leaves no file behind (no resume
+here). The GIL is released while it runs.)doc");
 }
 
 }  // namespace pointfair::python

@@ -22,9 +22,4 @@ void register_errors(py::module_& module) {
   });
 }
 
-void throw_not_implemented(const std::string& message) {
-  PyErr_SetString(PyExc_NotImplementedError, message.c_str());
-  throw py::error_already_set();
-}
-
 }  // namespace pointfair::python

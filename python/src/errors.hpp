@@ -4,13 +4,8 @@
 // message, which names the file or the parameter and the problem.
 #include <pybind11/pybind11.h>
 
-#include <string>
-
 namespace pointfair::python {
 
 void register_errors(pybind11::module_& module);
-
-/// Raises NotImplementedError(message) (as a C++ exception that pybind11 passes on).
-[[noreturn]] void throw_not_implemented(const std::string& message);
 
 }  // namespace pointfair::python

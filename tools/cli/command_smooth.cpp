@@ -84,9 +84,7 @@ int run_smooth(const Args& args) {
     finish_progress.finish();
     throw_if_interrupted();
   };
-  run.note = [quiet = output.quiet](std::string_view text) {
-    if (!quiet) std::fprintf(stderr, "%.*s\n", static_cast<int>(text.size()), text.data());
-  };
+  run.note = stderr_notes(output.quiet);
   PointFileSmoothResult result;
   try {
     const StopOnInterrupt stop_on_interrupt;  // a signal ends the current step or fit within a second

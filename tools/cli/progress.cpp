@@ -42,4 +42,10 @@ void Progress::finish() {
   shown_ = false;
 }
 
+std::function<void(std::string_view)> stderr_notes(bool quiet) {
+  return [quiet](std::string_view text) {
+    if (!quiet) std::fprintf(stderr, "%.*s\n", static_cast<int>(text.size()), text.data());
+  };
+}
+
 }  // namespace pointfair::cli

@@ -2,7 +2,9 @@
 // Progress on stderr for runs that take over a second: silent before that, then one line
 // updated in place (a terminal) or a line every 10% (a log file).
 #include <chrono>
+#include <functional>
 #include <string>
+#include <string_view>
 
 namespace pointfair::cli {
 
@@ -21,5 +23,9 @@ class Progress {
   int last_decile_ = -1;
   std::chrono::steady_clock::time_point start_, last_print_;
 };
+
+/// A run's one-line notes (PointFileSmooth::note, OutOfCoreFileSmooth::note) on stderr, unless
+/// quiet.
+std::function<void(std::string_view)> stderr_notes(bool quiet);
 
 }  // namespace pointfair::cli

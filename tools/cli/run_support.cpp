@@ -15,6 +15,10 @@
 
 namespace pointfair::cli {
 
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
 io::PointTable read_input(const std::filesystem::path& path, bool quiet) {
   io::ReadOptions options;
   options.on_warning = [quiet](const std::string& message) {

@@ -1,6 +1,7 @@
 #pragma once
 // Pieces every command shares: reading the input, turning results into output columns,
-// displacement statistics, writing.
+// displacement statistics, writing, timing.
+#include <chrono>
 #include <filesystem>
 #include <optional>
 #include <span>
@@ -14,6 +15,9 @@
 #include "pointfair/smooth.hpp"
 
 namespace pointfair::cli {
+
+/// Seconds from `t0` to now.
+double seconds_since(std::chrono::steady_clock::time_point t0);
 
 /// Reads a point file; warnings go to stderr unless quiet.
 io::PointTable read_input(const std::filesystem::path& path, bool quiet);

@@ -10,13 +10,6 @@
 #include "pointfair/io/point_selection.hpp"
 
 namespace pointfair::cli {
-namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-}  // namespace
 
 PointFileSmoothResult smooth_point_file(const PointFileSmooth& run) {
   const auto check = [&run] {
