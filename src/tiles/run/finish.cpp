@@ -69,19 +69,28 @@ void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::span
   // neighbor_source_: into `result`, in row order; with `anchors` (the tile's input points,
   // in row order), the anchors placed on the fits instead.
   for (double halo = knn_first_halo(t, q.k);; halo *= 2.0) {
-    const LocalSet local = gather_local(t, halo);
-    const std::optional<FinishLists> lists = finish_lists(t, halo, local, q);
+    LocalSet local = gather_local(t, halo);
+    std::optional<FinishLists> lists = finish_lists(t, halo, local, q);
     // The cell grids held about 48 bytes a point while they searched.
     const std::uint64_t searched = local.bytes() + local.positions.size() * 50;
     if (!lists) {
       account(searched);
       continue;
     }
+    // The fits read each neighbour's position and normal: as in finish_with_quadrics, they run
+    // on the gathered points stored in Morton order, the lists relabelled (each fit sees the
+    // same neighbours in the same order: the same bits), so that those reads stay in cache.
+    const std::vector<Index> order = spatial_order(local.positions);
+    const std::vector<Index> row_of = inverse_permutation(order);
+    permute_in_place(local.positions, order);
+    permute_neighborhoods_in_place(lists->normals, order, row_of);
+    relabel_neighborhoods_in_place(lists->fits, row_of);
+    for (Index& i : local.queries) i = row_of[i];
     const std::vector<Vec3> normals = neighbourhood_normals(local.positions, lists->normals, q);
     result.resize(local.queries.size());
     project_rows_to_quadrics(local.positions, normals, lists->fits, local.queries, q, result, anchors);
     largest_local_ = std::max<std::uint64_t>(largest_local_, local.positions.size());
-    account(searched + lists->bytes() + bytes(normals) + bytes(result));
+    account(searched + lists->bytes() + bytes(normals) + bytes(result) + bytes(order) + bytes(row_of));
     return;
   }
 }
