@@ -176,7 +176,8 @@ bool ArgumentParser::parse(const std::vector<std::string>& args) {
     // CLI11's own wording, which names the option and the problem ("--steps: 1 required N missing").
     throw UsageError(command_ + ": " + e.what() + " (see --help)");
   }
-  for (const std::string& extra : app->remaining()) {
+  if (const std::vector<std::string> extras = app->remaining(); !extras.empty()) {
+    const std::string& extra = extras.front();
     if (extra.starts_with("-") && extra.size() > 1)
       throw UsageError(command_ + ": unknown option '" + extra.substr(0, extra.find('=')) + "' (see --help)");
     throw UsageError(command_ + ": unexpected argument '" + extra + "' (see --help)");
