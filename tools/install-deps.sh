@@ -8,6 +8,7 @@ packages=(g++ cmake ninja-build pkg-config
           hdf5-tools  # h5ls/h5dump: the container layout test
           libgtest-dev libgmock-dev libbenchmark-dev
           libproj-dev proj-data  # --crs EPSG:N: PROJ and its database
+          libcli11-dev nlohmann-json3-dev  # the command line: its options and help, its --json summaries
           pybind11-dev python3-dev python3-numpy  # the Python module (python/, docs/python.md)
           clang libclang-rt-14-dev  # clang + libFuzzer: the fuzz smoke run of tools/test.sh
           libopenmpi-dev openmpi-bin libhdf5-openmpi-dev  # pointfair_mpi (-DPOINTFAIR_MPI=ON)

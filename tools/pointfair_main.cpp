@@ -37,7 +37,13 @@ constexpr const char* kUsage =
     "  export IN.h5 OUT   write a container (and its smoothing run) to a point file\n"
     "  version            print the version\n"
     "\n"
-    "'pointfair COMMAND --help' lists a command's options with units and defaults.\n"
+    "examples:\n"
+    "  pointfair smooth scan.ply smoothed.ply\n"
+    "  pointfair smooth city.las city-smooth.las --memory-budget 2G --json\n"
+    "\n"
+    "'pointfair COMMAND --help' lists a command's options with units and defaults: the common\n"
+    "ones first (input and output, colours, threads, memory budget, JSON, progress), then the\n"
+    "method's, then the advanced ones, and examples.\n"
     "Exit codes: 0 ok, 1 unexpected failure, 2 bad arguments, 3 input/output error,\n"
     "130/143 interrupted by SIGINT/SIGTERM (between steps; no partial output is left).\n";
 

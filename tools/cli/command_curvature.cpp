@@ -33,6 +33,8 @@ int run_curvature(const Args& args) {
   add_method_options(parser, params);
   add_output_options(parser, output, false);
   add_las_options(parser, output.las);
+  parser.example("pointfair curvature scan.ply curvature.ply --colour-by kmax");
+  parser.example("pointfair curvature scan.las features.las --features maxcurv --json");
   if (!parser.parse(args)) return 0;
   require_las_output(output.las, output_path);
   params.validate();

@@ -127,6 +127,8 @@ int run_demo(const Args& args) {
                [&](std::string_view v) { seed = parse_int(v, "--seed"); });
   add_method_options(parser, params);
   add_output_options(parser, output, false);
+  parser.example("pointfair demo");
+  parser.example("pointfair demo --out octahedron --noise 2 --level 5");
   if (!parser.parse(args)) return 0;
   if (level < 1 || level > 9) throw UsageError("--level must be in 1..9");
   if (!(noise_percent >= 0)) throw UsageError("--noise must be >= 0");

@@ -87,6 +87,7 @@ int run_eval(const Args& args) {
                [&](std::string_view v) { clean_path = std::string(v); });
   parser.value("input", "FILE", "The cloud before processing (same order), for displacements.",
                [&](std::string_view v) { input_path = std::string(v); });
+  parser.group(OptionGroup::Method);
   parser.value("normal-k", "N", "Neighbours of the measured PCA normal. Default 16.",
                [&](std::string_view v) { params.normal_k = parse_int(v, "--normal-k"); });
   parser.value("edge-band", "FRACTION", "Near-crease band, fraction of the diagonal. Default 0.01.",
@@ -95,9 +96,12 @@ int run_eval(const Args& args) {
                [&](std::string_view v) { truth_params.sharp_angle_degrees = parse_double(v, "--sharp-angle"); });
   parser.flag("no-curvature", "Skip curvature and feature scores.", [&] { params.with_curvature = false; });
   add_method_options(parser, params.method);
+  parser.group(OptionGroup::Common);
   parser.flag("json", "Print the result as JSON on stdout instead of the table.", [&] { output.json = true; });
   parser.value("threads", "N", "Worker threads (0 = all cores). Default 0.",
                [&](std::string_view v) { output.threads = parse_int(v, "--threads"); });
+  parser.example("pointfair eval smoothed.ply --truth cube.truth --input noisy.ply");
+  parser.example("pointfair eval smoothed.ply --truth sphere --json");
   if (!parser.parse(args)) return 0;
   if (truth_arg.empty()) throw UsageError("pointfair eval: --truth is required");
   params.validate();

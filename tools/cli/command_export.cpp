@@ -34,6 +34,8 @@ int run_export(const Args& args) {
                [&](std::string_view v) { budget = parse_size(v, "--memory-budget"); });
   add_output_options(parser, out, true);
   add_las_options(parser, out.las);
+  parser.example("pointfair export city.h5 city-smooth.las");
+  parser.example("pointfair export city.h5 city-input.ply --input-positions --encoding ascii");
   if (!parser.parse(args)) return 0;
   require_las_output(out.las, output);
   if (!is_container_path(input)) throw UsageError("pointfair export: IN must be a .h5 file, got '" + input + "'");

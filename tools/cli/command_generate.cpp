@@ -60,6 +60,8 @@ int run_generate(const Args& args) {
   parser.value("encoding", "binary|binary-be|ascii", "PLY encoding. Default binary.",
                [&](std::string_view v) { output.encoding = std::string(v); });
   add_las_options(parser, output.las);
+  parser.example("pointfair generate cube noisy.ply --points 20000 --noise 0.5 --clean clean.ply --truth-out cube.truth");
+  parser.example("pointfair generate mesh noisy.ply --mesh part.off --noise 1");
   if (!parser.parse(args)) return 0;
   require_las_output(output.las, output_path);
   if (points < 1 || points > 500'000'000) throw UsageError("--points must be in 1..500000000");

@@ -37,6 +37,7 @@ int run_import(const Args& args) {
                "Memory budget (e.g. 256M, 2G): sets the tile size of later runs and bounds the import's "
                "own memory, which streams the file in three passes (at least 16M). Default 256M.",
                [&](std::string_view v) { budget = parse_size(v, "--memory-budget"); });
+  parser.group(OptionGroup::Advanced);
   parser.value("tile-points", "N", "Most points per tile (kd tiles); overrides --memory-budget.",
                [&](std::string_view v) {
                  const int p = parse_int(v, "--tile-points");
@@ -60,8 +61,11 @@ int run_import(const Args& args) {
                  options.deflate = parse_int(v, "--deflate");
                  if (options.deflate < 0 || options.deflate > 9) throw UsageError("--deflate must be in 0..9");
                });
+  parser.group(OptionGroup::Common);
   parser.flag("json", "Print a machine-readable summary (JSON) on stdout.", [&] { json = true; });
   parser.flag("quiet", "No summary on stderr.", [&] { quiet = true; });
+  parser.example("pointfair import city.las city.h5 --memory-budget 2G");
+  parser.example("pointfair import city.las city.h5 --tile-points 500000 --deflate 4 --json");
   if (!parser.parse(args)) return 0;
   if (!is_container_path(output)) throw UsageError("pointfair import: OUT must be a .h5 file, got '" + output + "'");
   io::require_distinct(input, output);

@@ -219,6 +219,8 @@ int run_info(const Args& args) {
                [&](std::string_view v) { budget = parse_size(v, "--memory-budget"); });
   parser.value("threads", "N", "Worker threads (0: all cores). Default 0.",
                [&](std::string_view v) { threads = parse_int(v, "--threads"); });
+  parser.example("pointfair info scan.las");
+  parser.example("pointfair info scans/ --json");
   if (!parser.parse(args)) return 0;
   set_thread_count(threads);
 

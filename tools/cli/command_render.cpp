@@ -71,6 +71,8 @@ int run_render(const Args& args) {
   parser.value("threads", "N", "Worker threads (0 = all cores). Default 0.",
                [&](std::string_view v) { threads = parse_int(v, "--threads"); });
   add_method_options(parser, method);
+  parser.example("pointfair render noisy.ply,smoothed.ply compare.png --labels noisy,smoothed");
+  parser.example("pointfair render smoothed.ply top.png --view top --colour kmax");
   if (!parser.parse(args)) return 0;
   params.view = render::parse_view(view);
   params.validate();

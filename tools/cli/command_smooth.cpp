@@ -36,6 +36,7 @@ int run_smooth(const Args& args) {
                     &output_path);
   add_method_options(parser, params);
   add_finish_options(parser, params);
+  parser.group(OptionGroup::Method);
   parser.value("neighbors-from", "REF",
                "Build the neighbourhoods from this cloud (same points, same order) instead of the "
                "input: the paper's noise-free neighbourhoods.",
@@ -44,6 +45,8 @@ int run_smooth(const Args& args) {
   add_selection_options(parser, select);
   add_output_options(parser, output, true);
   add_las_options(parser, output.las);
+  parser.example("pointfair smooth scan.ply smoothed.ply");
+  parser.example("pointfair smooth scan.las ground.las --classes 2 --steps 50 --json");
   if (!parser.parse(args)) return 0;
   require_las_output(output.las, output_path);
   params.validate();

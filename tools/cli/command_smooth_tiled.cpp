@@ -62,10 +62,12 @@ int run_smooth_out_of_core(const Args& args) {
                "Working memory of the run (e.g. 256M, 2G). A point-file input that fits runs in "
                "core. Default 256M.",
                [&](std::string_view v) { ooc.memory_budget = parse_size(v, "--memory-budget"); });
+  parser.group(OptionGroup::Method);
   parser.value("neighbors-from", "REF",
                "Build the first neighbourhoods from this cloud (point file or container; same "
                "points, same order) instead of the input.",
                [&](std::string_view v) { ooc.neighbor_reference = std::string(v); });
+  parser.group(OptionGroup::Advanced);
   parser.value("temporal-block", "H",
                "Steps per load of a tile, which then comes with H rings of neighbours (2H with "
                "--shrink-compensation): less I/O per step, same result. Needs a fixed --lambda or "
@@ -80,12 +82,15 @@ int run_smooth_out_of_core(const Args& args) {
               "tile's halo, rather than as blocks of one step whose lists come from a scratch "
               "file made once: slower, same result.",
               [&] { ooc.step_blocks = false; });
+  parser.group(OptionGroup::Common);
   parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters).",
               [&] { ooc.resume = true; });
   SelectionOptions select;
   add_selection_options(parser, select);
   add_output_options(parser, output, true);
   add_las_options(parser, output.las);
+  parser.example("pointfair smooth city.las city-smooth.las --memory-budget 2G");
+  parser.example("pointfair smooth city.h5 city-smooth.las --resume");
   if (!parser.parse(args)) return 0;
   require_las_output(output.las, output_path);
   params.validate();

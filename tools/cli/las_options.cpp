@@ -30,6 +30,8 @@ Vec3 parse_triple(std::string_view text, std::string_view what) {
 }  // namespace
 
 void add_las_options(ArgumentParser& p, io::LasWriteOptions& o) {
+  const OptionGroup before = p.current_group();
+  p.group(OptionGroup::Advanced);
   p.value("las-version", "1.2|1.4",
           "LAS output: the version. 1.2 (point formats 0-3) is read by every LAS reader; 1.4 "
           "(formats 6-10) holds 256 classes, 15 returns and described extra bytes. Default: a LAS "
@@ -63,6 +65,7 @@ void add_las_options(ArgumentParser& p, io::LasWriteOptions& o) {
           "transformed; as PDAL's a_srs). EPSG:N+M adds a vertical system. Written as OGC WKT in "
           "LAS 1.4 formats 6-10, else as GeoTIFF keys. Default: a LAS input's own; none.",
           [&o](std::string_view v) { o.crs = lookup_crs(v); });
+  p.group(before);
 }
 
 void require_las_output(const io::LasWriteOptions& o, const std::filesystem::path& output) {

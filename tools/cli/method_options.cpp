@@ -51,6 +51,8 @@ std::string to_string(Placement placement) {
 }
 
 void add_method_options(ArgumentParser& p, SmoothParams& s) {
+  const OptionGroup before = p.current_group();
+  p.group(OptionGroup::Method);
   p.flag("paper",
          "The method as the paper states it: --cutoff-origin point --normal pca --tau 0.5 "
          "--steps 100 --stop-lambda-ratio 0 --stop-plateau 0 --shrink-compensation 0 "
@@ -87,8 +89,10 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
               if (!(s.neighbors.eps > 0.0)) throw UsageError("--eps must be positive, 'auto' or 'inf'");
             }
           });
+  p.group(OptionGroup::Advanced);
   p.value("eps-factor", "F", "Multiplier of the automatic eps (dimensionless). Default 2.",
           [&s](std::string_view v) { s.neighbors.eps_auto_factor = parse_double(v, "--eps-factor"); });
+  p.group(OptionGroup::Method);
   p.value("steps", "N",
           "Explicit Euler steps (0 reproduces the input); the most steps run when "
           "an automatic stop ends the anisotropic flow earlier. Default 150.",
@@ -107,6 +111,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           [&s](std::string_view v) {
             s.flow.cutoff = parse_choice<Cutoff>(v, "cutoff", {{"sharp", Cutoff::Sharp}, {"continuous", Cutoff::Continuous}});
           });
+  p.group(OptionGroup::Advanced);
   p.value("cutoff-origin", "point|plane",
           "Where the cut-off's directional curvatures kappa_ij are measured from: the point "
           "itself (the paper) or its foot on the PCA plane of its neighbourhood, so that a point's "
@@ -115,6 +120,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
             s.flow.cutoff_origin = parse_choice<CutoffOrigin>(
                 v, "cutoff-origin", {{"point", CutoffOrigin::Point}, {"plane", CutoffOrigin::Plane}});
           });
+  p.group(OptionGroup::Method);
   p.value("lambda", "CURVATURE|auto",
           "Cut-off threshold lambda, a curvature (1/length). 'auto': --lambda-factor times the "
           "median over points of the median |kappa_ij| (see --lambda-schedule). Default auto.",
@@ -125,6 +131,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
               if (!(s.flow.lambda > 0.0)) throw UsageError("--lambda must be positive or 'auto'");
             }
           });
+  p.group(OptionGroup::Advanced);
   p.value("lambda-schedule", "once|every-step",
           "When lambda is automatic: measure it once on the input (and after rebuilds), or again "
           "before every step. Default every-step.",
@@ -179,6 +186,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Rebuild the neighbourhoods from the current positions every M steps; 0 = never "
           "(the paper's default: built once from the input). Default 0.",
           [&s](std::string_view v) { s.rebuild_interval = parse_int(v, "--rebuild-every"); });
+  p.group(OptionGroup::Method);
   p.value("features", "none|quotient|maxcurv",
           "Feature detection: edge quotient |k_min|/|k_max| < Q with |k_max| >= threshold, or "
           "|k_max| >= threshold; both principal curvatures above it make a corner. Default quotient.",
@@ -187,8 +195,10 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
                 v, "features", {{"none", FeatureMode::None}, {"quotient", FeatureMode::EdgeQuotient},
                                 {"maxcurv", FeatureMode::MaxCurvature}});
           });
+  p.group(OptionGroup::Advanced);
   p.value("edge-quotient", "Q", "Edge quotient threshold Q in [0, 1] (dimensionless). Default 0.5.",
           [&s](std::string_view v) { s.flow.features.quotient = parse_double(v, "--edge-quotient"); });
+  p.group(OptionGroup::Method);
   p.value("feature-threshold", "auto|lambda|CURVATURE",
           "Curvature threshold of feature detection. 'auto': --feature-turn over each point's "
           "neighbourhood radius (its farthest neighbour), so that a point is a feature where the "
@@ -207,6 +217,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
                 throw UsageError("--feature-threshold must be positive, 'auto' or 'lambda'");
             }
           });
+  p.group(OptionGroup::Advanced);
   p.value("feature-turn", "RADIANS",
           "With --feature-threshold auto: the turn of the normal over one neighbourhood radius "
           "that makes a feature (radians; 0.25 is about 14 degrees). Default 0.25.",
@@ -232,6 +243,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
     return *s.coarse;
   };
   const CoarseLevelParams c;
+  p.group(OptionGroup::Method);
   p.flag("coarse-level",
          "Before the flow on every point, run it on every --coarse-ratio-th point (in Morton "
          "order), move each point by the coarse displacement near it, then take "
@@ -239,6 +251,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
          "sample spacings (beyond the paper; in core only): under heavy noise closer to the "
          "surface in fewer steps (docs/coarse-level.md). Default off.",
          [coarse] { coarse(); });
+  p.group(OptionGroup::Advanced);
   p.value("coarse-ratio", "R",
           "Points per coarse point (>= 2). Implies --coarse-level. Default " + std::to_string(c.ratio) + ".",
           [coarse](std::string_view v) { coarse().ratio = parse_int(v, "--coarse-ratio"); });
@@ -250,14 +263,17 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Steps on every point after the coarse level (the automatic stop does not apply). "
           "Implies --coarse-level. Default " + std::to_string(c.fine_steps) + ".",
           [coarse](std::string_view v) { coarse().fine_steps = parse_int(v, "--coarse-fine-steps"); });
+  p.group(before);
 }
 
 void add_finish_options(ArgumentParser& p, SmoothParams& s) {
+  const OptionGroup before = p.current_group();
   // A --quadric-* value turns the finish on (with the defaults for the values not given).
   const auto finish = [&s]() -> QuadricProjectionParams& {
     if (!s.finish) s.finish.emplace();
     return *s.finish;
   };
+  p.group(OptionGroup::Method);
   p.flag("quadric-finish",
          "After the flow, move every point onto a cubic fitted to its --quadric-k nearest "
          "neighbours whose normals lie within --quadric-angle of its own, within "
@@ -268,6 +284,7 @@ void add_finish_options(ArgumentParser& p, SmoothParams& s) {
   p.flag("no-quadric-finish", "Leave the flow's result as it is (--paper implies it).",
          [&s] { s.finish.reset(); });
   const QuadricProjectionParams d;
+  p.group(OptionGroup::Advanced);
   p.value("quadric-k", "N", "Neighbours of each quadric fit (5..1024). Default " + std::to_string(d.k) + ".",
           [finish](std::string_view v) { finish().k = parse_int(v, "--quadric-k"); });
   p.value("quadric-angle", "DEGREES",
@@ -298,9 +315,12 @@ void add_finish_options(ArgumentParser& p, SmoothParams& s) {
           "Neighbours of the pilot quadric of --quadric-curvature-reach (>= 10). Default " +
               std::to_string(d.min_k) + ".",
           [finish](std::string_view v) { finish().min_k = parse_int(v, "--quadric-min-k"); });
+  p.group(before);
 }
 
 void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attributes_flag) {
+  const OptionGroup before = p.current_group();
+  p.group(OptionGroup::Common);
   p.value("colour-by", "kmax|laplacian|none",
           "Colour points (red/green/blue) by the maximal principal curvature max(|k1|, |k2|) or "
           "by |A_i|, blue (minimum) to red (maximum) as CloudCompare, replacing the input's colours; 'none' "
@@ -340,6 +360,7 @@ void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attribute
             o.threads = parse_int(v, "--threads");
             if (o.threads < 0) throw UsageError("--threads must be >= 0");
           });
+  p.group(before);
 }
 
 }  // namespace pointfair::cli

@@ -38,6 +38,8 @@ std::bitset<256> parse_code_list(std::string_view text, std::string_view what, i
 }
 
 void add_selection_options(ArgumentParser& p, SelectionOptions& o) {
+  const OptionGroup before = p.current_group();
+  p.group(OptionGroup::Method);
   p.value("classes", "LIST",
           "Smooth only the points of these LAS classification codes (0-255; commas and ranges: "
           "2,6 or 2-6; from a LAS file's classification, or a 'classification' or 'class' "
@@ -63,6 +65,7 @@ void add_selection_options(ArgumentParser& p, SelectionOptions& o) {
             }
             o.returns = std::string(v);
           });
+  p.group(before);
 }
 
 void require_selection_compatible(const SelectionOptions& o, bool attributes, bool colour) {
