@@ -85,6 +85,38 @@ TEST(Laz, ChunksOfOnePointAndAnEmptyFile) {
   EXPECT_EQ(read_las(dir / "empty.laz").size(), 0u);
 }
 
+// LAS 1.4 allows formats 0-5: a LAZ file of it keeps its VLRs and its EVLRs, which follow the
+// chunk table.
+TEST(Laz, Las14KeepsVlrsAndEvlrsAfterTheChunkTable) {
+  TempDir dir;
+  PointTable table = laz_test_table(1, 500, 21, true);
+  table.las->version_minor = 4;
+  table.las->records.push_back({"pointfair_test", 7, "a VLR", "payload", false});
+  table.las->records.push_back({"pointfair_test", 8, "an EVLR", std::string(70000, 'e'), true});
+  for (const bool streamed : {false, true}) {
+    SCOPED_TRACE(streamed ? "streamed" : "whole table");
+    if (streamed) {
+      auto writer = open_las_writer(dir / "a.laz", table, table.size(), {.laz_chunk_size = 200});
+      writer->write(table);
+      writer->finish();
+    } else {
+      write_las(dir / "a.laz", table, {.laz_chunk_size = 200});
+    }
+    write_las(dir / "a.las", table);
+    const PointTable las = read_las(dir / "a.las");
+    const PointTable laz = read_las(dir / "a.laz");
+    expect_same_points(las, laz);
+    ASSERT_EQ(laz.las->records.size(), 2u);
+    for (std::size_t r = 0; r < 2; ++r) {
+      EXPECT_EQ(laz.las->records[r].user_id, las.las->records[r].user_id);
+      EXPECT_EQ(laz.las->records[r].record_id, las.las->records[r].record_id);
+      EXPECT_EQ(laz.las->records[r].data, las.las->records[r].data);
+      EXPECT_EQ(laz.las->records[r].extended, las.las->records[r].extended);
+    }
+    EXPECT_EQ(laz.las->version_minor, 4);
+  }
+}
+
 TEST(Laz, StreamsThroughTheChunkReaderAndWriter) {
   TempDir dir;
   const PointTable table = laz_test_table(3, 700, 5, true);
