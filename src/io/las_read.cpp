@@ -27,6 +27,8 @@ using namespace detail;
 namespace {
 
 constexpr std::size_t kBlockBytes = std::size_t{4} << 20;
+// Points of a LAZ file decoded into a table before it grows for the next ones.
+constexpr std::size_t kLazPiecePoints = std::size_t{1} << 18;
 // Doubles hold every integer up to 2^53 exactly; 64-bit fields beyond it are rounded.
 constexpr double kExactIntegerLimit = 9007199254740992.0;
 
@@ -303,9 +305,12 @@ class LasChunkReader final : public PointChunkReader {
   std::size_t append(PointTable& chunk, std::size_t max_points) override {
     const std::uint64_t left = h_.point_count - points_read_;
     const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(left, max_points));
-    if (count > 0) {
-      read_points_into(path_, read_records_, h_, columns_, options_, static_cast<std::size_t>(points_read_), count, rounded_,
-                       block_, chunk);
+    // A LAZ header's point count is not bounded by the file size (the LAS check): its points
+    // are allocated as they decode, so a false count fails at the chunk that lacks them.
+    const std::size_t piece = laz_ ? kLazPiecePoints : std::max<std::size_t>(count, 1);
+    for (std::size_t done = 0; done < count; done += piece) {
+      read_points_into(path_, read_records_, h_, columns_, options_, static_cast<std::size_t>(points_read_) + done,
+                       std::min(piece, count - done), rounded_, block_, chunk);
     }
     if (points_read_ + count == h_.point_count && !finished_) {
       finished_ = true;

@@ -201,6 +201,31 @@ TEST_F(LazErrors, TruncatedFileNamesTheChunk) {
   expect(bytes.substr(0, point_data_offset(bytes) + 4), "ends before its chunk table offset");
 }
 
+TEST_F(LazErrors, AFalsePointCountFailsAtTheChunkThatLacksThem) {
+  std::string bytes = valid();
+  // 2^31 - 1 points claimed, in chunks of 2^31 - 1 (the LASzip VLR's chunk size field), which
+  // the chunk table of 3 chunks contradicts: the chunks are read in sequence, and nothing that
+  // large is allocated before the data runs out.
+  const std::uint32_t count = 0x7fffffff;
+  std::memcpy(bytes.data() + 107, &count, 4);
+  const std::size_t vlr = point_data_offset(bytes) - (34 + 6 * 2);
+  std::memcpy(bytes.data() + vlr + 12, &count, 4);
+  expect(bytes, "LAZ chunk 0 of 1");
+}
+
+// A writer that cannot seek back stores -1 at the start of the point data and the chunk
+// table's offset in the file's last 8 bytes.
+TEST_F(LazErrors, ChunkTableOffsetAtTheEndOfTheFileIsFound) {
+  std::string bytes = valid();
+  const std::size_t at = point_data_offset(bytes);
+  std::string offset = bytes.substr(at, 8);
+  const std::int64_t unknown = -1;
+  std::memcpy(bytes.data() + at, &unknown, 8);
+  write_file(file_, bytes + offset);
+  write_las(dir_ / "expected.las", laz_test_table(1, 400, 11, false));
+  expect_same_points(read_las(dir_ / "expected.las"), read_las(file_));
+}
+
 TEST_F(LazErrors, CorruptChunkNamesTheChunk) {
   std::string bytes = valid();
   const std::size_t start = point_data_offset(bytes) + 8;

@@ -55,6 +55,8 @@ LazRecordReader::LazRecordReader(detail::FileReader& reader, const LaszipInfo& i
   if (table_offset > 0 && static_cast<std::uint64_t>(table_offset) >= first_chunk) {
     table_ = read_chunk_table(file_, static_cast<std::uint64_t>(table_offset), variable);
   }
+  // Fixed chunk sizes: every chunk but the last one is full.
+  if (table_ && !variable && table_->size() != (points_ + info_.chunk_size - 1) / info_.chunk_size) table_.reset();
   if (table_) {
     std::uint64_t total_points = 0, total_bytes = 0;
     for (ChunkEntry& chunk : *table_) {
