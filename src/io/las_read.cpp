@@ -296,7 +296,8 @@ class LasChunkReader final : public PointChunkReader {
   bool seek_over(std::uint64_t points) override {
     // Records of h_.record_length bytes; the last one is read, not skipped, so that the
     // EVLRs after it are read as usual.
-    if (laz_ || points_read_ + points >= h_.point_count) return false;
+    if (points_read_ + points >= h_.point_count) return false;
+    if (laz_) return laz_->skip(points);
     const std::uint64_t bytes = points * h_.record_length;
     if (reader_.skip(bytes) != bytes) fail(path_, "truncated point data");
     return true;

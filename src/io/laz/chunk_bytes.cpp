@@ -29,4 +29,17 @@ void ChunkBytes::refill() {
   buffer_end_position_ += got;
 }
 
+void ChunkBytes::skip_to(std::uint64_t target) {
+  assert(target >= position() && target <= limit_);
+  const std::uint64_t distance = target - position();
+  if (distance <= end_ - next_) {
+    next_ += static_cast<std::size_t>(distance);
+    return;
+  }
+  const std::uint64_t beyond = distance - (end_ - next_);
+  next_ = end_ = stop_ = 0;
+  if (reader_.skip(beyond) != beyond) throw ChunkOverrun{};
+  buffer_end_position_ += beyond;
+}
+
 }  // namespace pointfair::io::laz

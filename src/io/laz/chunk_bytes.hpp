@@ -32,6 +32,8 @@ class ChunkBytes {
   void get(std::uint8_t* out, std::size_t count) {
     for (std::size_t i = 0; i < count; ++i) out[i] = get();
   }
+  /// Passes over the bytes up to file position `target` (position() <= target <= limit()).
+  void skip_to(std::uint64_t target);
 
  private:
   void refill();

@@ -105,6 +105,31 @@ void LazRecordReader::finish_chunk() {
   decoder_.reset();
 }
 
+bool LazRecordReader::skip(std::uint64_t count) {
+  if (!table_) return false;
+  std::vector<char> scratch(record_length_);
+  while (count > 0) {
+    if (!decoder_ && chunk_ < table_->size() && (*table_)[chunk_].points <= count) {
+      const ChunkEntry& entry = (*table_)[chunk_];
+      const std::uint64_t end = bytes_.position() + entry.bytes;
+      bytes_.set_limit(end);
+      try {
+        bytes_.skip_to(end);
+      } catch (const ChunkOverrun&) {
+        chunk_start_ = bytes_.position();
+        fail_chunk("is truncated: the file ends inside it");
+      }
+      decoded_ += entry.points;
+      count -= entry.points;
+      ++chunk_;
+    } else {
+      read(scratch.data(), 1);
+      --count;
+    }
+  }
+  return true;
+}
+
 void LazRecordReader::read(char* out, std::size_t count) {
   auto* records = reinterpret_cast<std::uint8_t*>(out);
   for (std::size_t i = 0; i < count; ++i) {

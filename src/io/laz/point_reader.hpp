@@ -29,6 +29,9 @@ class LazRecordReader {
   /// The next `count` records into `out` (count * record_length bytes). Throws IoError
   /// "<file>: chunk <k> of <n> ..." for a truncated or corrupt chunk.
   void read(char* out, std::size_t count);
+  /// Passes over the next `count` records: whole chunks by the chunk table, without
+  /// decoding them; the others are decoded. False (nothing done) when the table was lost.
+  bool skip(std::uint64_t count);
 
  private:
   void start_chunk();
