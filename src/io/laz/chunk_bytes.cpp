@@ -18,11 +18,11 @@ void ChunkBytes::set_limit(std::uint64_t limit) {
 
 void ChunkBytes::refill() {
   assert(next_ == stop_);
-  if (stop_ < end_) throw ChunkOverrun{};  // the limit lies inside the buffered bytes
+  if (stop_ < end_ || reader_ == nullptr) throw ChunkOverrun{};  // the limit lies inside the buffered bytes
   const std::uint64_t wanted = limit_ > buffer_end_position_ ? std::min(kBlockBytes, limit_ - buffer_end_position_) : 0;
   if (wanted == 0) throw ChunkOverrun{};
   buffer_.resize(static_cast<std::size_t>(wanted));
-  const std::size_t got = reader_.read(reinterpret_cast<char*>(buffer_.data()), buffer_.size());
+  const std::size_t got = reader_->read(reinterpret_cast<char*>(buffer_.data()), buffer_.size());
   if (got == 0) throw ChunkOverrun{};
   next_ = 0;
   stop_ = end_ = got;
@@ -38,7 +38,7 @@ void ChunkBytes::skip_to(std::uint64_t target) {
   }
   const std::uint64_t beyond = distance - (end_ - next_);
   next_ = end_ = stop_ = 0;
-  if (reader_.skip(beyond) != beyond) throw ChunkOverrun{};
+  if (reader_ == nullptr || reader_->skip(beyond) != beyond) throw ChunkOverrun{};
   buffer_end_position_ += beyond;
 }
 

@@ -17,7 +17,10 @@ class ChunkBytes {
  public:
   /// Bytes from the current position of `reader` (which this object then owns the reading of).
   ChunkBytes(detail::FileReader& reader, std::uint64_t position)
-      : reader_(reader), buffer_end_position_(position), limit_(position) {}
+      : reader_(&reader), buffer_end_position_(position), limit_(position) {}
+  /// The bytes of `data` (one layer of a chunk), positions counted from 0.
+  explicit ChunkBytes(std::vector<std::uint8_t> data)
+      : buffer_(std::move(data)), end_(buffer_.size()), stop_(end_), buffer_end_position_(end_), limit_(end_) {}
 
   /// The file position of the next byte.
   std::uint64_t position() const { return buffer_end_position_ - (end_ - next_); }
@@ -38,7 +41,7 @@ class ChunkBytes {
  private:
   void refill();
 
-  detail::FileReader& reader_;
+  detail::FileReader* reader_ = nullptr;  // nullptr: the bytes are all in buffer_
   std::vector<std::uint8_t> buffer_;
   std::size_t next_ = 0, end_ = 0;
   std::size_t stop_ = 0;  // min(end_, the index of the limit): get() reads no further
