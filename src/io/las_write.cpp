@@ -292,10 +292,9 @@ Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuan
   std::string descriptors;
   plan_extra_bytes(file, source, extras, plan, descriptors);
   if (has_laz_extension(file)) {
-    if (h.point_format > 3) {
+    if (h.point_format == 4 || h.point_format == 5 || h.point_format > 8) {
       fail(file, "writing LAZ of point format " + std::to_string(h.point_format) +
-                     " is not supported yet (LAZ output holds point formats 0-3; the table needs LAS 1." +
-                     std::to_string(h.version_minor) + " format " + std::to_string(h.point_format) + "); write .las");
+                     " (with wave packets) is not supported (LAZ output holds point formats 0-3 and 6-8); write .las");
     }
     if (options.laz_chunk_size == 0 || options.laz_chunk_size == laz::kVariableChunkSize) {
       fail(file, "LAZ chunk size " + std::to_string(options.laz_chunk_size) + " is not usable (1 to 4294967294 points)");

@@ -104,4 +104,50 @@ inline PointTable laz_test_table(int format, std::size_t count, std::uint64_t se
   return t;
 }
 
+/// `count` points of LAS 1.4 point format `format` (6-8): the values of laz_test_table, and
+/// what 1.4 adds: up to 15 returns, 256 classes, the overlap flag, four scanner channels
+/// (interleaved in runs, each with its own flight line of GPS times), scan angles in 0.006
+/// degrees, and NIR for format 8.
+inline PointTable laz14_test_table(int format, std::size_t count, std::uint64_t seed, bool extra) {
+  PointTable t = laz_test_table(format == 6 ? 1 : 3, count, seed, extra);
+  t.las->version_minor = 4;
+  t.las->point_format = format;
+  t.las->global_encoding = 16;
+  Lcg random(seed * 7 + 1);
+  std::vector<double> channel(count), overlap(count), angle(count), nir(count), classification(count);
+  std::vector<double>& returns = t.find("number_of_returns")->values;
+  std::vector<double>& number = t.find("return_number")->values;
+  std::vector<double>& gps = t.find("gps_time")->values;
+  unsigned current = 0;
+  double nir_value = 1000;
+  for (std::size_t i = 0; i < count; ++i) {
+    // A pulse (same GPS time) stays on its channel; a new pulse may switch channel.
+    if (number[i] == 1 && random.below(6) == 0) current = random.below(4);
+    channel[i] = current;
+    gps[i] += 1000.0 * current;
+    if (random.below(40) == 0) {
+      // Many returns (up to 15).
+      returns[i] = 8 + random.below(8);
+      number[i] = 1 + random.below(static_cast<std::uint32_t>(returns[i]));
+    }
+    overlap[i] = random.below(15) == 0 ? 1 : 0;
+    angle[i] = random.below(3) == 0 ? static_cast<double>(random.below(30001)) - 15000 : (i > 0 ? angle[i - 1] : 0);
+    if (random.below(6) == 0) nir_value = random.below(65536);
+    nir[i] = nir_value;
+    classification[i] = random.below(4) == 0 ? random.below(256) : 2;
+  }
+  t.attributes.erase(t.attributes.begin() + (t.find("scan_angle_rank") - t.attributes.data()));
+  t.set("classification", ScalarType::UInt8, classification);
+  t.set("overlap", ScalarType::UInt8, overlap);
+  t.set("scanner_channel", ScalarType::UInt8, channel);
+  t.set("scan_angle", ScalarType::Int16, angle);
+  if (format == 8) t.set("nir", ScalarType::UInt16, nir);
+  if (format == 6) {
+    for (const char* name : {"red", "green", "blue"}) {
+      if (Attribute* colour = t.find(name)) t.attributes.erase(t.attributes.begin() + (colour - t.attributes.data()));
+    }
+  }
+  return t;
+}
+
 }  // namespace pointfair::io::testing

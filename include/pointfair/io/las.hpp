@@ -1,6 +1,6 @@
 #pragma once
 // ASPRS LAS point files, versions 1.0 to 1.4, point data record formats 0 to 10, and LAZ
-// (LAS with LASzip-compressed records) for point formats 0 to 3 (docs/laz.md).
+// (LAS with LASzip-compressed records) for point formats 0 to 3 and 6 to 8 (docs/laz.md).
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -33,7 +33,7 @@ namespace pointfair::io {
 ///
 /// A LAZ file (the compression bit and a LASzip VLR; the name does not matter) is read the
 /// same way, its records decompressed a chunk at a time; the LASzip VLR is not kept in
-/// table.las. LAZ of point formats 4-10 is refused.
+/// table.las. LAZ of the wave packet formats (4, 5, 9, 10) is refused.
 ///
 /// Throws IoError "<file>: <problem>" for a file that is not LAS, is LAZ that cannot be
 /// decoded (an unsupported format, compressor or item version; a truncated or corrupt
@@ -86,7 +86,8 @@ struct LasWriteOptions {
 
 /// Writes `table` atomically (see write_file_atomically) as a LAS file; as LAZ when `file`
 /// ends in .laz (case-insensitively), in chunks of options.laz_chunk_size points. LAZ output
-/// holds point formats 0-3 only: a table that needs formats 6-10 is refused for .laz.
+/// holds point formats 0-3 and 6-8: a table that needs wave packets (4, 5, 9, 10) is
+/// refused for .laz.
 ///
 /// Version and point format: options.version_minor's when given, else those of table.las
 /// when present (a table read from LAS); otherwise LAS 1.2, which every reader takes, when every attribute is one of intensity,

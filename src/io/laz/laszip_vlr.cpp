@@ -96,6 +96,20 @@ std::string serialize_laszip_vlr(const LaszipInfo& info) {
 LaszipInfo laszip_info_for(int point_format, std::size_t record_length, std::uint32_t chunk_size) {
   LaszipInfo info;
   info.chunk_size = chunk_size;
+  if (point_format >= 6) {
+    info.compressor = kLayeredChunked;
+    std::size_t used = 30;
+    info.items.push_back({ItemType::Point14, 30, 3});
+    if (point_format == 7) {
+      info.items.push_back({ItemType::Rgb14, 6, 3});
+      used += 6;
+    } else if (point_format == 8) {
+      info.items.push_back({ItemType::RgbNir14, 8, 3});
+      used += 8;
+    }
+    if (record_length > used) info.items.push_back({ItemType::Byte14, static_cast<std::uint16_t>(record_length - used), 3});
+    return info;
+  }
   std::size_t used = 20;
   info.items.push_back({ItemType::Point10, 20, 2});
   if (point_format == 1 || point_format == 3) {
@@ -112,23 +126,29 @@ LaszipInfo laszip_info_for(int point_format, std::size_t record_length, std::uin
 
 void require_decodable(const fs::path& file, const LaszipInfo& info, int point_format, std::size_t record_length) {
   if (info.coder != 0) detail::fail(file, "LAZ coder " + std::to_string(info.coder) + " is unknown (0: arithmetic)");
-  if (point_format > 5) {
+  if (point_format == 4 || point_format == 5 || point_format > 8) {
     detail::fail(file, "LAZ of point format " + std::to_string(point_format) +
-                           " (LAS 1.4's layered compression) is not supported yet; formats 0-3 are");
+                           " (with wave packets) is not supported; formats 0-3 and 6-8 are");
   }
-  if (info.compressor != kPointwiseChunked) {
+  const bool layered = point_format >= 6;
+  const std::uint16_t compressor = layered ? kLayeredChunked : kPointwiseChunked;
+  if (info.compressor != compressor) {
     detail::fail(file, "LAZ compressor " + std::to_string(info.compressor) +
-                           (info.compressor == 1 ? " (pointwise, from LASzip 1.x)" : "") +
-                           " is not supported (only 2: pointwise in chunks)");
+                           (info.compressor == 1 ? " (pointwise, from LASzip 1.x)" : "") + " is not supported for point format " +
+                           std::to_string(point_format) + " (only " + std::to_string(compressor) +
+                           (layered ? ": layered in chunks)" : ": pointwise in chunks)"));
   }
+  const std::uint16_t version = layered ? 3 : 2;
   std::size_t size = 0;
   for (const LazItem& item : info.items) {
-    const bool known = item.type == ItemType::Point10 || item.type == ItemType::GpsTime11 ||
-                       item.type == ItemType::Rgb12 || item.type == ItemType::Byte;
-    if (!known) detail::fail(file, "LAZ item " + item_name(item.type) + " is not supported");
-    if (item.version != 2) {
+    const bool known = layered ? item.type == ItemType::Point14 || item.type == ItemType::Rgb14 ||
+                                     item.type == ItemType::RgbNir14 || item.type == ItemType::Byte14
+                               : item.type == ItemType::Point10 || item.type == ItemType::GpsTime11 ||
+                                     item.type == ItemType::Rgb12 || item.type == ItemType::Byte;
+    if (!known) detail::fail(file, "LAZ item " + item_name(item.type) + " is not supported for point format " + std::to_string(point_format));
+    if (item.version != version) {
       detail::fail(file, "LAZ item " + item_name(item.type) + " version " + std::to_string(item.version) +
-                             " is not supported (only version 2, what LASzip 2.0 and later write)");
+                             " is not supported (only version " + std::to_string(version) + ")");
     }
     size += item.size;
   }

@@ -34,6 +34,7 @@ struct LazItem {
 
 /// Compressors: 0 none, 1 pointwise (LASzip 1.x), 2 pointwise in chunks, 3 layered in chunks.
 constexpr std::uint16_t kPointwiseChunked = 2;
+constexpr std::uint16_t kLayeredChunked = 3;
 /// A chunk size of 2^32-1 means chunks of varying sizes, each given in the chunk table.
 constexpr std::uint32_t kVariableChunkSize = 0xffffffffu;
 
@@ -53,7 +54,8 @@ LaszipInfo parse_laszip_vlr(const std::filesystem::path& file, std::string_view 
 std::string serialize_laszip_vlr(const LaszipInfo& info);
 
 /// The items of a point format 0-3 record of `record_length` bytes (version 2 codecs; the
-/// bytes after the format's fields are one BYTE item).
+/// bytes after the format's fields are one BYTE item), or of a format 6-8 one (version 3,
+/// layered: POINT14, RGB14 or RGBNIR14, BYTE14).
 LaszipInfo laszip_info_for(int point_format, std::size_t record_length, std::uint32_t chunk_size);
 
 /// Throws IoError "<file>: ..." naming what this reader cannot decode: another compressor

@@ -24,13 +24,19 @@ std::unique_ptr<ItemCodec> make_codec(const LazItem& item) {
 LazRecordReader::LazRecordReader(detail::FileReader& reader, const LaszipInfo& info, std::uint64_t point_data_start,
                                  std::uint64_t data_end, std::uint64_t points, std::size_t record_length)
     : file_(reader.path()), info_(info), record_length_(record_length), points_(points), bytes_(reader, point_data_start) {
-  std::size_t offset = 0;
-  for (const LazItem& item : info_.items) {
-    items_.push_back(make_codec(item));
-    item_offsets_.push_back(offset);
-    offset += item.size;
+  if (info_.compressor == kLayeredChunked) {
+    const std::size_t base = info_.items.size() > 1 && info_.items[1].type != ItemType::Byte14 ? 30 + info_.items[1].size : 30;
+    const int format = base == 30 ? 6 : base == 36 ? 7 : 8;
+    layered_ = std::make_unique<Layered14Codec>(format, record_length_ - base);
+  } else {
+    std::size_t offset = 0;
+    for (const LazItem& item : info_.items) {
+      items_.push_back(make_codec(item));
+      item_offsets_.push_back(offset);
+      offset += item.size;
+    }
+    assert(offset == record_length_);
   }
-  assert(offset == record_length_);
   if (points_ == 0) return;
 
   const bool variable = info_.chunk_size == kVariableChunkSize;
@@ -103,13 +109,32 @@ void LazRecordReader::finish_chunk() {
   }
   ++chunk_;
   decoder_.reset();
+  chunk_started_ = false;
+}
+
+void LazRecordReader::start_layered_chunk(std::uint8_t* record) {
+  bytes_.get(record, record_length_);
+  std::uint8_t word[4];
+  bytes_.get(word, 4);  // the chunk's point count (the table's, or the header's, is used)
+  std::vector<std::uint32_t> sizes(layered_->layer_count());
+  for (std::uint32_t& size : sizes) {
+    bytes_.get(word, 4);
+    std::memcpy(&size, word, 4);
+  }
+  std::vector<std::vector<std::uint8_t>> layers(sizes.size());
+  for (std::size_t i = 0; i < sizes.size(); ++i) {
+    // Each byte is checked against the chunk's end before the layer grows past it.
+    for (std::uint32_t b = 0; b < sizes[i]; ++b) layers[i].push_back(bytes_.get());
+  }
+  layered_->start_decoding(record, std::move(layers));
 }
 
 bool LazRecordReader::skip(std::uint64_t count) {
   if (!table_) return false;
   std::vector<char> scratch(record_length_);
   while (count > 0) {
-    if (!decoder_ && chunk_ < table_->size() && (*table_)[chunk_].points <= count) {
+    const bool at_chunk_start = layered_ ? !chunk_started_ : !decoder_;
+    if (at_chunk_start && chunk_ < table_->size() && (*table_)[chunk_].points <= count) {
       const ChunkEntry& entry = (*table_)[chunk_];
       const std::uint64_t end = bytes_.position() + entry.bytes;
       bytes_.set_limit(end);
@@ -136,7 +161,16 @@ void LazRecordReader::read(char* out, std::size_t count) {
     if (decoded_ >= points_) detail::fail(file_, "more LAZ points read than the header declares");
     std::uint8_t* record = records + i * record_length_;
     try {
-      if (!decoder_) {
+      if (layered_) {
+        if (!chunk_started_) {
+          start_chunk();
+          if (left_in_chunk_ == 0) fail_chunk("holds no points");
+          start_layered_chunk(record);
+          chunk_started_ = true;
+        } else {
+          layered_->decode(record);
+        }
+      } else if (!decoder_) {
         start_chunk();
         if (left_in_chunk_ == 0) fail_chunk("holds no points");
         bytes_.get(record, record_length_);

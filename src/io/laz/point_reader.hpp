@@ -1,6 +1,7 @@
 #pragma once
 // Decompresses the point records of a LAZ file a chunk at a time, into the bytes the same
-// records have in an uncompressed LAS file (so the LAS reader decodes their fields).
+// records have in an uncompressed LAS file (so the LAS reader decodes their fields): point
+// formats 0-3 item by item (item_codec.hpp), 6-8 layer by layer (layered14.hpp).
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -13,6 +14,7 @@
 #include "laz/chunk_table.hpp"
 #include "laz/item_codec.hpp"
 #include "laz/laszip_vlr.hpp"
+#include "laz/layered14.hpp"
 
 namespace pointfair::io::laz {
 
@@ -36,6 +38,7 @@ class LazRecordReader {
  private:
   void start_chunk();
   void finish_chunk();
+  void start_layered_chunk(std::uint8_t* record);
   [[noreturn]] void fail_chunk(const std::string& problem) const;
 
   std::filesystem::path file_;
@@ -49,9 +52,13 @@ class LazRecordReader {
   std::uint64_t chunk_start_ = 0;       // its file offset
   std::uint64_t left_in_chunk_ = 0;     // points of it not yet decoded
   std::uint64_t decoded_ = 0;           // points decoded so far
+  // Point formats 0-3: one codec per item, one coded stream per chunk.
   std::vector<std::unique_ptr<ItemCodec>> items_;
   std::vector<std::size_t> item_offsets_;
   std::optional<ArithmeticDecoder> decoder_;
+  // Point formats 6-8: the layered codec, started when a chunk is (chunk_started_).
+  std::unique_ptr<Layered14Codec> layered_;
+  bool chunk_started_ = false;
 };
 
 }  // namespace pointfair::io::laz

@@ -10,6 +10,7 @@
 #include "laz/chunk_table.hpp"
 #include "laz/item_codec.hpp"
 #include "laz/laszip_vlr.hpp"
+#include "laz/layered14.hpp"
 #include "pointfair/io/atomic_file.hpp"
 
 namespace pointfair::io::laz {
@@ -38,6 +39,7 @@ class LazRecordWriter {
   std::vector<std::size_t> item_offsets_;
   std::vector<std::uint8_t> chunk_;
   std::optional<ArithmeticEncoder> encoder_;
+  std::unique_ptr<Layered14Codec> layered_;  // point formats 6-8
   std::uint64_t in_chunk_ = 0;
   std::vector<ChunkEntry> table_;
 };
