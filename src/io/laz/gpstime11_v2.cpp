@@ -22,6 +22,11 @@ constexpr std::uint32_t kMultiCodeFull = kMulti - kMultiMinus + 2;   // 512
 constexpr std::uint32_t kMultiTotal = kMulti - kMultiMinus + 6;      // 516
 
 // 32-bit products and sums wrap as the format's int32 arithmetic does.
+// Adds as the format's 64-bit integers do (wrapping, on a corrupt stream).
+std::int64_t add64(std::int64_t a, std::int32_t b) {
+  return static_cast<std::int64_t>(static_cast<std::uint64_t>(a) + static_cast<std::uint64_t>(static_cast<std::int64_t>(b)));
+}
+
 std::int32_t wrap32(std::int64_t v) { return static_cast<std::int32_t>(static_cast<std::uint32_t>(static_cast<std::uint64_t>(v))); }
 
 // Rounds to nearest as the format's float quantisation does; saturated to int32.
@@ -82,7 +87,7 @@ class GpsTime11V2 final : public ItemCodec {
         const std::uint32_t multi = d.decode_symbol(zero_diff_);
         if (multi == 1) {
           diff_[last_] = ic_.decompress(d, 0, 0);
-          time_[last_] += diff_[last_];
+          time_[last_] = add64(time_[last_], diff_[last_]);
           extreme_[last_] = 0;
         } else if (multi == 2) {
           start_sequence_decoded(d);
@@ -95,7 +100,7 @@ class GpsTime11V2 final : public ItemCodec {
       const std::uint32_t multi = d.decode_symbol(multi_);
       if (multi == 1) {
         diff_[last_] = ic_.decompress(d, diff_[last_], 1);
-        time_[last_] += diff_[last_];
+        time_[last_] = add64(time_[last_], diff_[last_]);
         extreme_[last_] = 0;
       } else if (multi < kMultiUnchanged) {
         std::int32_t diff;
@@ -116,7 +121,7 @@ class GpsTime11V2 final : public ItemCodec {
             count_extreme(diff);
           }
         }
-        time_[last_] += diff;
+        time_[last_] = add64(time_[last_], diff);
       } else if (multi == kMultiCodeFull) {
         start_sequence_decoded(d);
       } else if (multi > kMultiCodeFull) {

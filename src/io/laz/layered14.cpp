@@ -110,6 +110,11 @@ void pack(const Point14& q, std::uint8_t* p) {
   store(q.gps, p + 22);
 }
 
+// Adds as the format's 64-bit integers do (wrapping, on a corrupt stream).
+std::int64_t add64(std::int64_t a, std::int32_t b) {
+  return static_cast<std::int64_t>(static_cast<std::uint64_t>(a) + static_cast<std::uint64_t>(static_cast<std::int64_t>(b)));
+}
+
 std::int32_t wrap32(std::int64_t v) { return static_cast<std::int32_t>(static_cast<std::uint32_t>(static_cast<std::uint64_t>(v))); }
 std::int32_t wrap_sub(std::int32_t a, std::int32_t b) {
   return static_cast<std::int32_t>(static_cast<std::uint32_t>(a) - static_cast<std::uint32_t>(b));
@@ -312,7 +317,7 @@ struct Layered14Codec::State {
         if (s == 0) {
           const std::int32_t d = integer(kGpsTime, c.gps, 0, diff, 0);
           c.gps_diff[c.gps_last] = d;
-          c.gps_time[c.gps_last] += d;
+          c.gps_time[c.gps_last] = add64(c.gps_time[c.gps_last], d);
           c.gps_extreme[c.gps_last] = 0;
         } else if (s == 1) {
           gps_new_sequence(c, time);
@@ -345,7 +350,7 @@ struct Layered14Codec::State {
       s = symbol(kGpsTime, c.gps_multi, s);
       if (s == 1) {
         const std::int32_t d = integer(kGpsTime, c.gps, last_diff, diff, 1);
-        c.gps_time[c.gps_last] += d;
+        c.gps_time[c.gps_last] = add64(c.gps_time[c.gps_last], d);
         c.gps_extreme[c.gps_last] = 0;
       } else if (s < kMultiCodeFull) {
         std::int32_t d;
@@ -366,7 +371,7 @@ struct Layered14Codec::State {
             gps_extreme(c, d);
           }
         }
-        c.gps_time[c.gps_last] += d;
+        c.gps_time[c.gps_last] = add64(c.gps_time[c.gps_last], d);
       } else if (s == kMultiCodeFull) {
         gps_new_sequence(c, time);
       } else {
