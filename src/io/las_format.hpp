@@ -74,7 +74,7 @@ struct LasHeader {
   std::uint32_t point_data_offset = 0;
   std::uint32_t vlr_count = 0;
   int point_format = 0;       // without the compression bits
-  std::uint8_t format_byte = 0;  // as stored
+  std::uint8_t format_byte = 0;  // as stored; serialize_las_header keeps its compression bits (6, 7)
   std::uint16_t record_length = 0;
   std::uint64_t point_count = 0;
   std::uint64_t points_by_return[15] = {};

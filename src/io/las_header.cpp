@@ -119,7 +119,7 @@ std::string serialize_las_header(const LasHeader& h) {
   w.put<std::uint16_t>(94, h.header_size);
   w.put<std::uint32_t>(96, h.point_data_offset);
   w.put<std::uint32_t>(100, h.vlr_count);
-  w.put<std::uint8_t>(104, static_cast<std::uint8_t>(h.point_format));
+  w.put<std::uint8_t>(104, static_cast<std::uint8_t>(h.point_format | (h.format_byte & 0xc0)));
   w.put<std::uint16_t>(105, h.record_length);
   // Legacy counts: 0 when they do not fit or the format is a 1.4 one (as the spec asks).
   const bool legacy = h.point_format < 6 && h.point_count <= 0xffffffffu;

@@ -1,8 +1,11 @@
 // LAS reader: public header, VLRs, point records (in blocks), EVLRs, each checked against
-// the file size before it is read or allocated.
+// the file size before it is read or allocated. LAZ files are read the same way, their
+// records decompressed a chunk at a time (laz/point_reader.hpp).
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <functional>
+#include <optional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -10,6 +13,8 @@
 #include "file_reader.hpp"
 #include "io_error.hpp"
 #include "las_format.hpp"
+#include "laz/laszip_vlr.hpp"
+#include "laz/point_reader.hpp"
 #include "pointfair/io/las.hpp"
 #include "scalar_codec.hpp"
 #include "table_checks.hpp"
@@ -22,6 +27,8 @@ using namespace detail;
 namespace {
 
 constexpr std::size_t kBlockBytes = std::size_t{4} << 20;
+// Points of a LAZ file decoded into a table before it grows for the next ones.
+constexpr std::size_t kLazPiecePoints = std::size_t{1} << 18;
 // Doubles hold every integer up to 2^53 exactly; 64-bit fields beyond it are rounded.
 constexpr double kExactIntegerLimit = 9007199254740992.0;
 
@@ -33,11 +40,6 @@ std::string read_exact(FileReader& reader, std::uint64_t size, std::string_view 
   std::string bytes(static_cast<std::size_t>(size), '\0');
   reader.read(bytes.data(), bytes.size());
   return bytes;
-}
-
-[[noreturn]] void fail_laz(const fs::path& file) {
-  fail(file, "LAZ (compressed LAS) is not supported; decompress it first, e.g. with "
-             "'laszip -i in.laz -o out.las' or 'pdal translate in.laz out.las'");
 }
 
 std::uint64_t position_of(const FileReader& reader) { return reader.size() - reader.remaining(); }
@@ -69,7 +71,6 @@ LasHeader read_header(FileReader& reader) {
   }
   skip_to(reader, h.header_size, "the end of the header");
 
-  if ((h.format_byte & 0xc0) != 0) fail_laz(file);
   if (h.point_format > kMaxPointFormat) {
     fail(file, "unknown point data format " + std::to_string(h.point_format) + " (expected 0 to 10)");
   }
@@ -96,7 +97,9 @@ LasHeader read_header(FileReader& reader) {
   return h;
 }
 
-void read_vlrs(FileReader& reader, const LasHeader& h, LasMetadata& metadata) {
+// The LASzip VLR, which describes the compression of a LAZ file, goes to `laszip` (it is
+// not metadata of the points: a LAS copy must not carry it).
+void read_vlrs(FileReader& reader, const LasHeader& h, LasMetadata& metadata, std::optional<std::string>& laszip) {
   const fs::path& file = reader.path();
   const std::uint64_t space = h.point_data_offset - h.header_size;
   if (std::uint64_t{h.vlr_count} * kVlrHeaderSize > space) {
@@ -116,8 +119,10 @@ void read_vlrs(FileReader& reader, const LasHeader& h, LasMetadata& metadata) {
     record.record_id = static_cast<std::uint16_t>(load_le(LasStorage::U16, head.data() + 18));
     record.description = fixed_text(std::string_view(head).substr(22, 32));
     record.data = read_exact(reader, length, name);
-    if (record.user_id == "laszip encoded") fail_laz(file);
-    if (record.user_id == kLasSpecUserId && record.record_id == kExtraBytesRecordId) {
+    if (record.user_id == laz::kLaszipUserId && record.record_id == laz::kLaszipRecordId) {
+      if (laszip) fail(file, "more than one LASzip VLR");
+      laszip = std::move(record.data);
+    } else if (record.user_id == kLasSpecUserId && record.record_id == kExtraBytesRecordId) {
       if (have_extra_bytes) fail(file, "more than one Extra Bytes VLR");
       have_extra_bytes = true;
       metadata.extra_bytes_descriptors = std::move(record.data);
@@ -159,11 +164,12 @@ struct Column {
   bool wide = false;  // a 64-bit integer, exact only up to 2^53
 };
 
-void check_point_count(FileReader& reader, const LasHeader& h) {
+// `compressed`: LAZ records have no fixed size (the LAZ reader checks its chunks instead).
+void check_point_count(FileReader& reader, const LasHeader& h, bool compressed) {
   const fs::path& file = reader.path();
   const std::size_t record = h.record_length;
   const std::uint64_t available = reader.remaining() / record;
-  if (h.point_count > available) {
+  if (!compressed && h.point_count > available) {
     fail(file, "header declares " + std::to_string(h.point_count) + " points but the file holds only " +
                    std::to_string(available) + " records of " + std::to_string(record) + " bytes");
   }
@@ -173,12 +179,14 @@ void check_point_count(FileReader& reader, const LasHeader& h) {
   }
 }
 
+// The next `records` point records (as stored in a LAS file) into `out`.
+using ReadRecords = std::function<void(char* out, std::size_t records)>;
+
 // Appends records [first, first + count) to `table`, a block at a time. `rounded` (one flag
 // per column) keeps the 2^53 warning to one per column and file.
-void read_points_into(FileReader& reader, const LasHeader& h, const std::vector<Column>& columns,
+void read_points_into(const fs::path& file, const ReadRecords& read_records, const LasHeader& h, const std::vector<Column>& columns,
                       const ReadOptions& options, std::size_t first, std::size_t count,
                       std::vector<bool>& rounded, std::vector<char>& block, PointTable& table) {
-  const fs::path& file = reader.path();
   const std::size_t record = h.record_length;
   const std::size_t start = table.positions.size();
   table.positions.resize(start + count);
@@ -189,9 +197,7 @@ void read_points_into(FileReader& reader, const LasHeader& h, const std::vector<
   for (std::size_t done = 0; done < count; done += block_records) {
     const std::size_t records = std::min(block_records, count - done);
     const std::size_t at = start + done;
-    if (reader.read(block.data(), records * record) != records * record) {
-      fail(file, "truncated point data");
-    }
+    read_records(block.data(), records);
     for (std::size_t r = 0; r < records; ++r) {
       const char* bytes = block.data() + r * record;
       Vec3& p = table.positions[at + r];
@@ -228,12 +234,6 @@ void read_points_into(FileReader& reader, const LasHeader& h, const std::vector<
   }
 }
 
-bool has_laz_extension(const fs::path& file) {
-  std::string extension = file.extension().string();
-  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return extension == ".laz";
-}
-
 }  // namespace
 
 namespace {
@@ -243,7 +243,7 @@ namespace {
 class LasChunkReader final : public PointChunkReader {
  public:
   LasChunkReader(const fs::path& file, const ReadOptions& options)
-      : PointChunkReader(file), options_(options), reader_(init(file)) {
+      : PointChunkReader(file), options_(options), reader_(file) {
     h_ = read_header(reader_);
     LasMetadata metadata;
     metadata.version_minor = h_.version_minor;
@@ -252,8 +252,21 @@ class LasChunkReader final : public PointChunkReader {
     metadata.global_encoding = h_.global_encoding;
     metadata.project_guid = h_.project_guid;
     metadata.system_identifier = h_.system_identifier;
-    read_vlrs(reader_, h_, metadata);
+    std::optional<std::string> laszip;
+    read_vlrs(reader_, h_, metadata, laszip);
     skip_to(reader_, h_.point_data_offset, "the point data");
+    const bool compressed = (h_.format_byte & 0xc0) != 0;
+    if (compressed != laszip.has_value()) {
+      fail(file, compressed ? "the point format has the compression bit (LAZ) but there is no LASzip VLR"
+                            : "a LASzip VLR (LAZ) is present but the point format lacks the compression bit");
+    }
+    if (compressed) {
+      const laz::LaszipInfo info = laz::parse_laszip_vlr(file, *laszip);
+      laz::require_decodable(file, info, h_.point_format, h_.record_length);
+      const bool evlrs = h_.version_minor >= 4 && h_.evlr_count > 0 && h_.evlr_start > h_.point_data_offset;
+      laz_.emplace(reader_, info, h_.point_data_offset, evlrs ? std::min(h_.evlr_start, reader_.size()) : reader_.size(),
+                   h_.point_count, h_.record_length);
+    }
 
     schema_.position_type = ScalarType::Float64;
     schema_.quantization = PositionQuantization{Vec3(h_.scale[0], h_.scale[1], h_.scale[2]),
@@ -274,7 +287,7 @@ class LasChunkReader final : public PointChunkReader {
     }
     schema_.las = std::move(metadata);
     rounded_.assign(columns_.size(), false);
-    check_point_count(reader_, h_);
+    check_point_count(reader_, h_, compressed);
   }
 
   std::optional<std::uint64_t> count() const override { return h_.point_count; }
@@ -284,6 +297,7 @@ class LasChunkReader final : public PointChunkReader {
     // Records of h_.record_length bytes; the last one is read, not skipped, so that the
     // EVLRs after it are read as usual.
     if (points_read_ + points >= h_.point_count) return false;
+    if (laz_) return laz_->skip(points);
     const std::uint64_t bytes = points * h_.record_length;
     if (reader_.skip(bytes) != bytes) fail(path_, "truncated point data");
     return true;
@@ -292,9 +306,12 @@ class LasChunkReader final : public PointChunkReader {
   std::size_t append(PointTable& chunk, std::size_t max_points) override {
     const std::uint64_t left = h_.point_count - points_read_;
     const auto count = static_cast<std::size_t>(std::min<std::uint64_t>(left, max_points));
-    if (count > 0) {
-      read_points_into(reader_, h_, columns_, options_, static_cast<std::size_t>(points_read_), count, rounded_,
-                       block_, chunk);
+    // A LAZ header's point count is not bounded by the file size (the LAS check): its points
+    // are allocated as they decode, so a false count fails at the chunk that lacks them.
+    const std::size_t piece = laz_ ? kLazPiecePoints : std::max<std::size_t>(count, 1);
+    for (std::size_t done = 0; done < count; done += piece) {
+      read_points_into(path_, read_records_, h_, columns_, options_, static_cast<std::size_t>(points_read_) + done,
+                       std::min(piece, count - done), rounded_, block_, chunk);
     }
     if (points_read_ + count == h_.point_count && !finished_) {
       finished_ = true;
@@ -310,13 +327,17 @@ class LasChunkReader final : public PointChunkReader {
   }
 
  private:
-  static const fs::path& init(const fs::path& file) {
-    if (has_laz_extension(file)) fail_laz(file);
-    return file;
-  }
-
   ReadOptions options_;
   FileReader reader_;
+  std::optional<laz::LazRecordReader> laz_;
+  // From laz_ when the file is LAZ, else straight from the file.
+  ReadRecords read_records_ = [this](char* out, std::size_t records) {
+    if (laz_) {
+      laz_->read(out, records);
+    } else if (reader_.read(out, records * h_.record_length) != records * h_.record_length) {
+      fail(path_, "truncated point data");
+    }
+  };
   LasHeader h_;
   std::vector<Column> columns_;
   std::vector<bool> rounded_;

@@ -1,6 +1,8 @@
 // LAS writer: plans the whole file (format, quantization, fields, extra bytes, records)
 // and checks it before the output is created, then writes header, VLRs, points and EVLRs.
+// A .laz name compresses the records as LAZ (laz/point_writer.hpp); all else is the same.
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <ctime>
 #include <limits>
@@ -11,6 +13,8 @@
 
 #include "io_error.hpp"
 #include "las_format.hpp"
+#include "laz/laszip_vlr.hpp"
+#include "laz/point_writer.hpp"
 #include "number_text.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/las.hpp"
@@ -45,7 +49,15 @@ struct Plan {
   std::vector<LasRecord> vlrs, evlrs;
   // A version was asked for: bit fields are checked, not clipped (check_bit_fields).
   bool strict_fields = false;
+  // LAZ: how the records are compressed (the LASzip VLR's payload).
+  std::optional<laz::LaszipInfo> laz;
 };
+
+bool has_laz_extension(const fs::path& file) {
+  std::string extension = file.extension().string();
+  for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return extension == ".laz";
+}
 
 // Fields of LAS 1.2's formats 0-3 that hold whatever a 1.4 format would: an attribute of
 // any other name (return counts, classes and scan angles, whose 1.2 fields are narrower;
@@ -279,11 +291,26 @@ Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuan
   }
   std::string descriptors;
   plan_extra_bytes(file, source, extras, plan, descriptors);
+  if (has_laz_extension(file)) {
+    if (h.point_format == 4 || h.point_format == 5 || h.point_format > 8) {
+      fail(file, "writing LAZ of point format " + std::to_string(h.point_format) +
+                     " (with wave packets) is not supported (LAZ output holds point formats 0-3 and 6-8); write .las");
+    }
+    if (options.laz_chunk_size == 0 || options.laz_chunk_size == laz::kVariableChunkSize) {
+      fail(file, "LAZ chunk size " + std::to_string(options.laz_chunk_size) + " is not usable (1 to 4294967294 points)");
+    }
+    plan.laz = laz::laszip_info_for(h.point_format, h.record_length, options.laz_chunk_size);
+    h.format_byte = 0x80;  // the compression bit
+  }
 
   if (!descriptors.empty()) {
     plan.vlrs.push_back({std::string(kLasSpecUserId), kExtraBytesRecordId, "Extra Bytes", descriptors, false});
   }
   if (options.crs) plan.vlrs.push_back(crs_record(file, *options.crs, h));
+  if (plan.laz) {
+    plan.vlrs.push_back({std::string(laz::kLaszipUserId), laz::kLaszipRecordId, "laszip compression",
+                         laz::serialize_laszip_vlr(*plan.laz), false});
+  }
   if (source != nullptr) {
     for (const LasRecord& record : source->records) {
       if (options.crs && is_crs_record(record)) continue;
@@ -304,9 +331,34 @@ Plan plan_file(const fs::path& file, const PointTable& table, const PositionQuan
   h.point_data_offset = static_cast<std::uint32_t>(offset);
   h.vlr_count = static_cast<std::uint32_t>(plan.vlrs.size());
   h.evlr_count = static_cast<std::uint32_t>(plan.evlrs.size());
+  // LAZ: where the compressed points end is known once they are written (RecordOutput).
   if (!plan.evlrs.empty()) h.evlr_start = offset + h.point_count * h.record_length;
   return plan;
 }
+
+// Where encoded records go: straight to the file, or through the LAZ compressor.
+class RecordOutput {
+ public:
+  // `sink` has received the header and VLRs.
+  RecordOutput(FileSink& sink, const Plan& plan) : sink_(sink), end_(plan.header.point_data_offset) {
+    if (plan.laz) laz_.emplace(sink, *plan.laz, plan.header.point_data_offset, plan.header.record_length);
+  }
+  void write(const char* records, std::size_t count, std::size_t record_length) {
+    if (laz_) {
+      laz_->write(records, count);
+    } else {
+      sink_.write(records, count * record_length);
+      end_ += count * record_length;
+    }
+  }
+  // Ends the point data; returns the file offset after it.
+  std::uint64_t finish() { return laz_ ? laz_->finish() : end_; }
+
+ private:
+  FileSink& sink_;
+  std::uint64_t end_;
+  std::optional<laz::LazRecordWriter> laz_;
+};
 
 // Quantized positions' bounds and points by return, checked before anything is written.
 // `first` is the file index of the table's first point: bounds start from the file's first
@@ -411,6 +463,7 @@ void write_las(const fs::path& file, const PointTable& table, const LasWriteOpti
   write_file_atomically(file, [&](FileSink& sink) {
     sink.write(serialize_las_header(plan.header));
     for (const LasRecord& record : plan.vlrs) write_record(sink, record, false);
+    RecordOutput output(sink, plan);
     const std::size_t record = plan.header.record_length;
     const std::size_t count = table.size();
     const std::size_t block_records = std::max<std::size_t>(1, kBlockBytes / record);
@@ -418,9 +471,14 @@ void write_las(const fs::path& file, const PointTable& table, const LasWriteOpti
     for (std::size_t first = 0; first < count; first += block_records) {
       const std::size_t records = std::min(block_records, count - first);
       encode_block(table, q, plan, first, records, block);
-      sink.write(block.data(), records * record);
+      output.write(block.data(), records, record);
     }
+    const std::uint64_t end = output.finish();
     for (const LasRecord& evlr : plan.evlrs) write_record(sink, evlr, true);
+    if (plan.laz) {
+      if (!plan.evlrs.empty()) plan.header.evlr_start = end;
+      sink.write_at(0, serialize_las_header(plan.header));
+    }
   });
 }
 
@@ -480,6 +538,7 @@ class LasStreamWriter final : public PointChunkWriter {
     file_.emplace(file);
     file_->sink().write(serialize_las_header(plan_.header));
     for (const LasRecord& record : plan_.vlrs) write_record(file_->sink(), record, false);
+    output_.emplace(file_->sink(), plan_);
   }
 
   void write(const PointTable& chunk) override {
@@ -505,7 +564,7 @@ class LasStreamWriter final : public PointChunkWriter {
     for (std::size_t first = 0; first < chunk.size(); first += block_records) {
       const std::size_t records = std::min(block_records, chunk.size() - first);
       encode_block(chunk, q_, chunk_plan, first, records, block_);
-      file_->sink().write(block_.data(), records * record);
+      output_->write(block_.data(), records, record);
     }
     points_written_ += chunk.size();
   }
@@ -515,6 +574,8 @@ class LasStreamWriter final : public PointChunkWriter {
       fail(path_, "only " + std::to_string(points_written_) + " of the " + std::to_string(count_) +
                       " declared points were written");
     }
+    const std::uint64_t end = output_->finish();
+    if (plan_.laz && !plan_.evlrs.empty()) plan_.header.evlr_start = end;
     for (const LasRecord& evlr : plan_.evlrs) write_record(file_->sink(), evlr, true);
     file_->sink().write_at(0, serialize_las_header(plan_.header));
     file_->commit();
@@ -528,6 +589,7 @@ class LasStreamWriter final : public PointChunkWriter {
   Plan plan_;
   std::vector<char> block_;
   std::optional<AtomicFile> file_;
+  std::optional<RecordOutput> output_;  // after file_: refers to its sink
 };
 
 }  // namespace

@@ -41,14 +41,14 @@ std::optional<PointFormat> point_format_of(const fs::path& file) {
   if (extension == ".xyz" || extension == ".txt" || extension == ".pts" || extension == ".csv" || extension == ".asc") {
     return PointFormat::Text;
   }
-  // read_las explains how to decompress a .laz file.
+  // LAZ is LAS with compressed records: the LAS reader and writer handle both.
   if (extension == ".las" || extension == ".laz") return PointFormat::Las;
   return std::nullopt;
 }
 
 bool is_supported_point_file(const fs::path& file) {
   const std::optional<PointFormat> format = point_format_of(file);
-  return format && lower_extension(file) != ".laz";
+  return format.has_value();
 }
 
 PointTable read_points(const fs::path& file, const ReadOptions& options) {
@@ -66,7 +66,6 @@ void write_points(const fs::path& file, const PointTable& table, const WriteOpti
   if (format == Format::Ply) {
     write_ply(file, table, options.ply_encoding);
   } else if (format == Format::Las) {
-    if (lower_extension(file) == ".laz") detail::fail(file, "writing LAZ (compressed LAS) is not supported; write .las");
     write_las(file, table, options.las);
   } else {
     write_xyz(file, table);
@@ -88,7 +87,6 @@ std::unique_ptr<PointChunkWriter> open_point_writer(const fs::path& file, const 
   if (!options.input.empty()) require_distinct(options.input, file);
   if (format == Format::Ply) return open_ply_writer(file, schema, count, options.ply_encoding);
   if (format == Format::Las) {
-    if (lower_extension(file) == ".laz") detail::fail(file, "writing LAZ (compressed LAS) is not supported; write .las");
     return open_las_writer(file, schema, count, options.las);
   }
   return open_xyz_writer(file, schema, count);

@@ -1,5 +1,5 @@
 // libFuzzer target: the LAS reader (versions 1.0-1.4, point formats 0-10, VLRs, EVLRs,
-// extra bytes) on arbitrary bytes. Expected outcomes: a table or an IoError; anything else
+// extra bytes, and LAZ: the corpus has LAZ files of formats 1 and 7) on arbitrary bytes. Expected outcomes: a table or an IoError; anything else
 // (a crash, a sanitizer report, an allocation over libFuzzer's limit) is a finding.
 #include <cmath>
 #include <cstdint>

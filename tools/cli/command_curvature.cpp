@@ -24,7 +24,7 @@ int run_curvature(const Args& args) {
                         "curvature vector |A| and the feature class (0 smooth, 1 edge, 2 corner), "
                         "without moving any point. Normals point away from the bounding-box "
                         "centre; curvatures are positive where the surface is convex (a sphere: +1/R).");
-  parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
+  parser.positional("IN", "Input point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv).", &input);
   parser.positional("OUT",
                     "Output point file with the attributes as named properties/columns, after the "
                     "input's own (whose normals are replaced); coloured by kmax unless the input "

@@ -24,7 +24,7 @@ int run_export(const Args& args) {
                         "the input's normals are replaced by the run's, and the file is written in "
                         "the layout of the file that was imported (docs/formats.md).");
   parser.positional("IN", "Input container (.h5).", &input);
-  parser.positional("OUT", "Output point file (.ply, .las, .xyz, .txt, .pts, .csv).", &output);
+  parser.positional("OUT", "Output point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv).", &output);
   parser.flag("tile-order", "Write points in the container's tile order instead of the input's order.",
               [&] { tile_order = true; });
   parser.flag("input-positions", "Write the input positions even when the container holds a run.",

@@ -30,8 +30,8 @@ int run_import(const Args& args) {
   ArgumentParser parser("pointfair import",
                         "Writes a point file into a tiled HDF5 scan container (docs/out-of-core.md: "
                         "positions, every attribute, original indices, a tile table) for "
-                        "out-of-core runs. LAZ input must be decompressed to LAS first.");
-  parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
+                        "out-of-core runs.");
+  parser.positional("IN", "Input point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv).", &input);
   parser.positional("OUT", "Output container (.h5); written under a temporary name and renamed.", &output);
   parser.value("memory-budget", "SIZE",
                "Memory budget (e.g. 256M, 2G): sets the tile size of later runs and bounds the import's "

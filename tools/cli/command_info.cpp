@@ -211,7 +211,7 @@ int run_info(const Args& args) {
                         "point count, bounds, scale and offset and coordinate system (LAS), every "
                         "attribute with its type and range, the sample spacing and noise, and the k "
                         "and eps that 'pointfair smooth' would choose with its defaults.");
-  parser.positional("FILE", "A point file (.ply, .las, .xyz, .txt, .pts, .csv, .asc) or a folder of them.", &input);
+  parser.positional("FILE", "A point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv, .asc) or a folder of them.", &input);
   parser.flag("json", "Print the description as JSON on stdout instead of text.", [&] { json = true; });
   parser.value("memory-budget", "SIZE",
                "Largest cloud measured in core for the spacing, noise and defaults (about 220 bytes "
@@ -231,7 +231,7 @@ int run_info(const Args& args) {
       if (entry.is_regular_file() && io::is_supported_point_file(entry.path())) files.push_back(entry.path());
     if (ec) throw io::IoError(input + ": cannot list the folder: " + ec.message());
     std::sort(files.begin(), files.end());
-    if (files.empty()) throw io::IoError(input + ": no point files (.ply, .las, .xyz, .txt, .pts, .csv, .asc) in the folder");
+    if (files.empty()) throw io::IoError(input + ": no point files (.ply, .las, .laz, .xyz, .txt, .pts, .csv, .asc) in the folder");
   } else {
     io::require_regular_input(input);
     files.push_back(input);

@@ -31,7 +31,7 @@ int run_smooth(const Args& args) {
                         "recomputed); every other attribute, colours included, and the file's "
                         "layout (PLY encoding, text columns, header, separator) come back as they "
                         "were (docs/formats.md).");
-  parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
+  parser.positional("IN", "Input point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv).", &input);
   parser.positional("OUT", "Output point file; written under a temporary name and renamed when complete.",
                     &output_path);
   add_method_options(parser, params);

@@ -71,7 +71,7 @@ void add_las_options(ArgumentParser& p, io::LasWriteOptions& o) {
 void require_las_output(const io::LasWriteOptions& o, const std::filesystem::path& output) {
   if (o.version_minor == 0 && !o.scale && !o.offset && !o.crs) return;
   if (io::point_format_of(output) != io::PointFormat::Las) {
-    throw UsageError("--las-version, --scale, --offset and --crs apply to a LAS output (.las), not '" +
+    throw UsageError("--las-version, --scale, --offset and --crs apply to a LAS output (.las or .laz), not '" +
                      output.string() + "'");
   }
 }

@@ -1,6 +1,6 @@
 #pragma once
-// ASPRS LAS point files, versions 1.0 to 1.4, point data record formats 0 to 10
-// (uncompressed only: LAZ is refused with a hint to decompress it first).
+// ASPRS LAS point files, versions 1.0 to 1.4, point data record formats 0 to 10, and LAZ
+// (LAS with LASzip-compressed records) for point formats 0 to 3 and 6 to 8 (docs/laz.md).
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -31,8 +31,13 @@ namespace pointfair::io {
 /// name_0, name_1, ...; names are reduced to letters, digits and '_' and made unique), then
 /// one uint8 "extra_byte_<k>" per undescribed byte.
 ///
-/// Throws IoError "<file>: <problem>" for a file that is not LAS, is LAZ or has the
-/// compression bit set, is truncated, has inconsistent sizes or offsets (checked against the
+/// A LAZ file (the compression bit and a LASzip VLR; the name does not matter) is read the
+/// same way, its records decompressed a chunk at a time; the LASzip VLR is not kept in
+/// table.las. LAZ of the wave packet formats (4, 5, 9, 10) is refused.
+///
+/// Throws IoError "<file>: <problem>" for a file that is not LAS, is LAZ that cannot be
+/// decoded (an unsupported format, compressor or item version; a truncated or corrupt
+/// chunk: "LAZ chunk <k> of <n> ..."), is truncated, has inconsistent sizes or offsets (checked against the
 /// file size before anything is allocated), an unknown version or point format, a record
 /// length too small for its format, an unusable scale or offset, or a non-finite position.
 PointTable read_las(const std::filesystem::path& file, const ReadOptions& options = {});
@@ -74,9 +79,15 @@ struct LasWriteOptions {
   /// Replaces every coordinate system record of the source (LASF_Projection 2111, 2112,
   /// 34735-34737); empty: the source's records are kept, a table from elsewhere has none.
   std::optional<LasCoordinateSystem> crs{};
+  /// Points per LAZ chunk when the file name ends in .laz (each chunk is compressed on its
+  /// own; a reader holds one at a time). 50000 is LASzip's default.
+  std::uint32_t laz_chunk_size = 50000;
 };
 
-/// Writes `table` atomically (see write_file_atomically) as a LAS file.
+/// Writes `table` atomically (see write_file_atomically) as a LAS file; as LAZ when `file`
+/// ends in .laz (case-insensitively), in chunks of options.laz_chunk_size points. LAZ output
+/// holds point formats 0-3 and 6-8: a table that needs wave packets (4, 5, 9, 10) is
+/// refused for .laz.
 ///
 /// Version and point format: options.version_minor's when given, else those of table.las
 /// when present (a table read from LAS); otherwise LAS 1.2, which every reader takes, when every attribute is one of intensity,

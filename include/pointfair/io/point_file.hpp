@@ -25,23 +25,22 @@ struct WriteOptions {
 /// The point file formats, as named by a file's extension.
 enum class PointFormat { Ply, Las, Text };
 
-/// The format of `file` by its extension, case-insensitively: .ply; .las (and .laz, which
-/// the LAS reader refuses with a hint); .xyz .txt .pts .csv .asc. Empty for any other.
+/// The format of `file` by its extension, case-insensitively: .ply; .las and .laz (LAS with
+/// compressed records); .xyz .txt .pts .csv .asc. Empty for any other.
 std::optional<PointFormat> point_format_of(const std::filesystem::path& file);
 
 /// True if the extension (case-insensitive) is one read_points/write_points handle:
-/// .ply, .las, .xyz, .txt, .pts, .csv or .asc.
+/// .ply, .las, .laz, .xyz, .txt, .pts, .csv or .asc.
 bool is_supported_point_file(const std::filesystem::path& file);
 
-/// Reads `file` with read_ply (.ply), read_las (.las; .laz is refused with a hint to
-/// decompress it) or read_xyz (.xyz .txt .pts .csv .asc), case-insensitively.
+/// Reads `file` with read_ply (.ply), read_las (.las and .laz) or read_xyz (.xyz .txt .pts .csv .asc), case-insensitively.
 /// Throws IoError "<file>: <problem>": "unknown file extension '.foo' (expected ...)",
 /// "... files are not supported by this build yet" for .h5/.hdf5,
 /// "cannot open: No such file or directory", or any error of the format's reader.
 PointTable read_points(const std::filesystem::path& file, const ReadOptions& options = {});
 
 /// Writes `table` with write_ply (using options.ply_encoding), write_las or write_xyz, by
-/// extension (.laz is refused).
+/// extension (.laz: write_las compresses the records, see docs/laz.md).
 /// Throws IoError as read_points for the extension, "output would overwrite the input" when
 /// `file` is options.input, or any error of the format's writer.
 void write_points(const std::filesystem::path& file, const PointTable& table,
