@@ -44,6 +44,7 @@ int run_smooth(const Args& args) {
   SelectionOptions select;
   add_selection_options(parser, select);
   add_output_options(parser, output, true);
+  add_budget_options(parser, nullptr, nullptr);
   add_las_options(parser, output.las);
   parser.example("pointfair smooth scan.ply smoothed.ply");
   parser.example("pointfair smooth scan.las ground.las --classes 2 --steps 50 --json");

@@ -44,6 +44,25 @@ Args without_budget(const Args& args) {
 
 }  // namespace
 
+void add_budget_options(ArgumentParser& parser, std::uint64_t* budget, bool* resume) {
+  const OptionGroup group = parser.current_group();
+  parser.group(OptionGroup::Common);
+  parser.value("memory-budget", "SIZE",
+               "Working memory of the run (e.g. 256M, 2G): a point file that does not fit in it runs "
+               "out of core, in tiles streamed through a run file beside the output, bit-identical "
+               "to the in-core run (docs/out-of-core.md); one that fits runs in core. Without it a "
+               "point file runs in core and a container (.h5) in 256M. With it, --help lists the "
+               "out-of-core options.",
+               [budget](std::string_view v) {
+                 const std::uint64_t bytes = parse_size(v, "--memory-budget");
+                 if (budget != nullptr) *budget = bytes;
+               });
+  parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters).", [resume] {
+    if (resume != nullptr) *resume = true;
+  });
+  parser.group(group);
+}
+
 int run_smooth_out_of_core(const Args& args) {
   std::string input, output_path;
   SmoothParams params;
@@ -58,10 +77,7 @@ int run_smooth_out_of_core(const Args& args) {
   parser.positional("OUT", "Output container (.h5) or point file.", &output_path);
   add_method_options(parser, params);
   add_finish_options(parser, params);
-  parser.value("memory-budget", "SIZE",
-               "Working memory of the run (e.g. 256M, 2G). A point-file input that fits runs in "
-               "core. Default 256M.",
-               [&](std::string_view v) { ooc.memory_budget = parse_size(v, "--memory-budget"); });
+  add_budget_options(parser, &ooc.memory_budget, &ooc.resume);
   parser.group(OptionGroup::Method);
   parser.value("neighbors-from", "REF",
                "Build the first neighbourhoods from this cloud (point file or container; same "
@@ -82,9 +98,6 @@ int run_smooth_out_of_core(const Args& args) {
               "tile's halo, rather than as blocks of one step whose lists come from a scratch "
               "file made once: slower, same result.",
               [&] { ooc.step_blocks = false; });
-  parser.group(OptionGroup::Common);
-  parser.flag("resume", "Continue the interrupted run in OUT.partial (same parameters).",
-              [&] { ooc.resume = true; });
   SelectionOptions select;
   add_selection_options(parser, select);
   add_output_options(parser, output, true);
