@@ -80,6 +80,11 @@ void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::span
     // The fits read each neighbour's position and normal: as in finish_with_quadrics, they run
     // on the gathered points stored in Morton order, the lists relabelled (each fit sees the
     // same neighbours in the same order: the same bits), so that those reads stay in cache.
+    // The order and its inverse (8 bytes a point) take the room of the gathered points'
+    // container rows and original indices (16), which nothing reads from here on: the tile
+    // needs no more memory than `searched` counted.
+    std::vector<std::uint64_t>().swap(local.rows);
+    std::vector<std::uint64_t>().swap(local.original);
     const std::vector<Index> order = spatial_order(local.positions);
     const std::vector<Index> row_of = inverse_permutation(order);
     permute_in_place(local.positions, order);
@@ -90,7 +95,7 @@ void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::span
     result.resize(local.queries.size());
     project_rows_to_quadrics(local.positions, normals, lists->fits, local.queries, q, result, anchors);
     largest_local_ = std::max<std::uint64_t>(largest_local_, local.positions.size());
-    account(searched + lists->bytes() + bytes(normals) + bytes(result) + bytes(order) + bytes(row_of));
+    account(searched + lists->bytes() + bytes(normals) + bytes(result));
     return;
   }
 }
