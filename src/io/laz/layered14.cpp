@@ -258,7 +258,7 @@ struct Layered14Codec::State {
       store(c.last_colour[3], record + at);
       at += 2;
     }
-    std::memcpy(record + at, c.last_bytes.data(), extra);
+    if (extra > 0) std::memcpy(record + at, c.last_bytes.data(), extra);  // an empty vector's data() may be null
   }
 
   void start(const std::uint8_t* record) {
