@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "laz/arithmetic_coder.hpp"
+#include "laz/laszip_vlr.hpp"
 
 namespace pointfair::io::laz {
 
@@ -28,5 +29,16 @@ std::unique_ptr<ItemCodec> make_point10_v2();
 std::unique_ptr<ItemCodec> make_gpstime11_v2();
 std::unique_ptr<ItemCodec> make_rgb12_v2();
 std::unique_ptr<ItemCodec> make_byte_v2(std::size_t size);
+
+/// The version 2 codec of `item` (POINT10, GPSTIME11, RGB12, else BYTE): what a pointwise
+/// chunk's reader and writer both run (require_decodable has refused every other type).
+inline std::unique_ptr<ItemCodec> make_item_codec_v2(const LazItem& item) {
+  switch (item.type) {
+    case ItemType::Point10: return make_point10_v2();
+    case ItemType::GpsTime11: return make_gpstime11_v2();
+    case ItemType::Rgb12: return make_rgb12_v2();
+    default: return make_byte_v2(item.size);
+  }
+}
 
 }  // namespace pointfair::io::laz

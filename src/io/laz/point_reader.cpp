@@ -8,19 +8,6 @@
 
 namespace pointfair::io::laz {
 
-namespace {
-
-std::unique_ptr<ItemCodec> make_codec(const LazItem& item) {
-  switch (item.type) {
-    case ItemType::Point10: return make_point10_v2();
-    case ItemType::GpsTime11: return make_gpstime11_v2();
-    case ItemType::Rgb12: return make_rgb12_v2();
-    default: return make_byte_v2(item.size);  // require_decodable allows no other
-  }
-}
-
-}  // namespace
-
 LazRecordReader::LazRecordReader(detail::FileReader& reader, const LaszipInfo& info, std::uint64_t point_data_start,
                                  std::uint64_t data_end, std::uint64_t points, std::size_t record_length)
     : file_(reader.path()), info_(info), record_length_(record_length), points_(points), bytes_(reader, point_data_start) {
@@ -31,7 +18,7 @@ LazRecordReader::LazRecordReader(detail::FileReader& reader, const LaszipInfo& i
   } else {
     std::size_t offset = 0;
     for (const LazItem& item : info_.items) {
-      items_.push_back(make_codec(item));
+      items_.push_back(make_item_codec_v2(item));
       item_offsets_.push_back(offset);
       offset += item.size;
     }

@@ -6,19 +6,6 @@
 
 namespace pointfair::io::laz {
 
-namespace {
-
-std::unique_ptr<ItemCodec> make_codec(const LazItem& item) {
-  switch (item.type) {
-    case ItemType::Point10: return make_point10_v2();
-    case ItemType::GpsTime11: return make_gpstime11_v2();
-    case ItemType::Rgb12: return make_rgb12_v2();
-    default: assert(item.type == ItemType::Byte); return make_byte_v2(item.size);
-  }
-}
-
-}  // namespace
-
 LazRecordWriter::LazRecordWriter(FileSink& sink, const LaszipInfo& info, std::uint64_t point_data_start,
                                  std::size_t record_length)
     : sink_(sink), info_(info), record_length_(record_length), point_data_start_(point_data_start) {
@@ -29,7 +16,7 @@ LazRecordWriter::LazRecordWriter(FileSink& sink, const LaszipInfo& info, std::ui
   } else {
     std::size_t offset = 0;
     for (const LazItem& item : info_.items) {
-      items_.push_back(make_codec(item));
+      items_.push_back(make_item_codec_v2(item));
       item_offsets_.push_back(offset);
       offset += item.size;
     }
