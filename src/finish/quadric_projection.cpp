@@ -422,12 +422,11 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
   near.eps = inf;
   const std::vector<Index> order = spatial_order(points);
   const std::vector<Index> row_of = inverse_permutation(order);
-  std::vector<Vec3> stored(n), out(n), block_anchors;
+  std::vector<Vec3> stored = gather(points, order), out(n), block_anchors;
   std::vector<Index> queries, stored_queries;
   Neighborhoods rows;
   for (int pass = 0; pass < params.passes; ++pass) {
     const bool last = pass + 1 == params.passes;
-    stored = gather(points, order);
     const std::vector<Vec3> normals =
         neighbourhood_normals(stored, build_reordered_neighborhoods(points, near, order, row_of), params);
     // One grid a pass for every block's queries (a grid a block cost a sort of the whole
@@ -458,7 +457,10 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
           progress(static_cast<std::size_t>(pass) * n + first + part + size, n * static_cast<std::size_t>(params.passes));
       }
     }
+    // The caller's order for the next pass's lists (and the result); `out` is already the
+    // next pass's stored cloud.
     for (std::size_t s = 0; s < n; ++s) points[order[s]] = out[s];
+    stored.swap(out);
   }
 }
 
