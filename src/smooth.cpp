@@ -334,8 +334,17 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
 PointAttributes compute_attributes(std::span<const Vec3> positions,
                                    const Neighborhoods& neighborhoods, const FlowParams& params,
                                    double lambda) {
-  const std::size_t n = positions.size();
-  require(neighborhoods.size() == n, "compute_attributes: one neighbourhood row per point");
+  require(neighborhoods.size() == positions.size(), "compute_attributes: one neighbourhood row per point");
+  Eigen::AlignedBox3d box;
+  for (const auto& p : positions) box.extend(p);
+  const Vec3 centre = !positions.empty() ? Vec3(box.center()) : Vec3(Vec3::Zero());
+  return compute_attributes(positions, neighborhoods, centre, params, lambda);
+}
+
+PointAttributes compute_attributes(std::span<const Vec3> positions, NeighborhoodsView neighborhoods,
+                                   const Vec3& centre, const FlowParams& params, double lambda) {
+  const std::size_t n = neighborhoods.size();
+  require(n <= positions.size(), "compute_attributes: more neighbourhood rows than points");
   PointAttributes a;
   a.normal.resize(n);
   a.d1.resize(n);
@@ -345,9 +354,6 @@ PointAttributes compute_attributes(std::span<const Vec3> positions,
   a.mean_curvature.resize(n);
   a.laplacian_norm.resize(n);
   a.feature.resize(n);
-  Eigen::AlignedBox3d box;
-  for (const auto& p : positions) box.extend(p);
-  const Vec3 centre = n > 0 ? Vec3(box.center()) : Vec3(Vec3::Zero());
   std::atomic<std::size_t> degenerate{0};
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
     std::size_t bad = 0;

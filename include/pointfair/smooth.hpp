@@ -253,4 +253,10 @@ PointAttributes compute_attributes(std::span<const Vec3> positions,
                                    const Neighborhoods& neighborhoods, const FlowParams& params,
                                    double lambda);
 
+/// compute_attributes of points 0 .. neighborhoods.size() - 1 alone (every point of
+/// `positions` may be their neighbour), normals oriented away from `centre`: what the whole
+/// call gives those points when `centre` is the centre of the whole cloud's bounding box.
+PointAttributes compute_attributes(std::span<const Vec3> positions, NeighborhoodsView neighborhoods,
+                                   const Vec3& centre, const FlowParams& params, double lambda);
+
 }  // namespace pointfair

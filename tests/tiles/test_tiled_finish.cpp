@@ -87,6 +87,45 @@ TEST_F(TiledFinishTest, BitIdenticalToInCoreForAnyTilingAndThreads) {
 
 // The finish after the other ways of stepping: rebuilt lists (the attributes use the last
 // ones), temporal blocks, compensated steps.
+// A tile whose finish (the fits' k with their halo) does not fit the budget whole, though its
+// steps do, is finished in parts (halved until each part with its halo fits): the same bits,
+// at every budget from the one that holds the steps up.
+TEST_F(TiledFinishTest, TilesTooLargeForTheBudgetAreFinishedInPartsToTheSameBits) {
+  const io::PointTable cloud = test::noisy_cube(5000, 47);
+  const SmoothParams params = few_steps(2);
+  QuadricProjectionParams q = finish_params(2, 3);
+  q.k = 120;
+  const test::InCore ref = test::run_in_core(cloud, test::finishing(params, q));
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 500}, 256));
+  set_thread_count(2);
+  std::uint64_t in_parts_at_most = 0;
+  int refused = 0;
+  for (const std::uint64_t kib : {768u, 1024u, 1536u, 65536u}) {
+    SCOPED_TRACE(testing::Message() << kib << " KiB");
+    OutOfCoreOptions options = with_finish(q);
+    options.memory_budget = kib << 10;
+    OutOfCoreReport r;
+    try {
+      r = smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), options);
+    } catch (const BudgetError& e) {
+      // Too small for the steps' one tile: refused before any finish pass began.
+      EXPECT_EQ(in_parts_at_most, 0u) << "a larger budget was refused after a smaller one ran: " << e.what();
+      ++refused;
+      std::filesystem::remove(partial_name(path("run.h5")));
+      continue;
+    }
+    EXPECT_TRUE(r.finished);
+    test::expect_identical(path("run.h5"), ref);
+    std::filesystem::remove(path("run.h5"));
+    if (in_parts_at_most == 0) in_parts_at_most = r.finish_tiles_in_parts;
+    if (kib == 65536u) {
+      EXPECT_EQ(r.finish_tiles_in_parts, 0u) << "a budget that holds the whole tile";
+    }
+  }
+  // The case this test is for: the smallest budget that ran finished tiles in parts.
+  EXPECT_GT(in_parts_at_most, 0u) << refused << " budgets refused";
+}
+
 TEST_F(TiledFinishTest, AfterRebuildsBlocksAndCompensationLikeInCore) {
   const io::PointTable cloud = test::noisy_cube(1500, 46);
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 120}, 256));

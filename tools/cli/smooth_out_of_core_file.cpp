@@ -116,6 +116,7 @@ JsonObject summary_json(const OutOfCoreFileSmooth& run, const tiles::OutOfCoreRe
   j.add("memory_budget_bytes", static_cast<std::size_t>(run.options.memory_budget));
   j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
   j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));
+  j.add("finish_tiles_in_parts", static_cast<std::size_t>(report.finish_tiles_in_parts));
   j.add("neighbors_cached", report.neighbors_cached).add("positions_held", report.positions_held);
   j.add("halo_scratch", report.halo_scratch);
   j.add("step_blocks", report.step_blocks);

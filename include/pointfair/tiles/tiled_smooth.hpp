@@ -139,6 +139,9 @@ struct OutOfCoreReport {
   /// The largest working set the run accounted for (bytes), and the largest tile + halo.
   std::uint64_t peak_accounted_bytes = 0;
   std::uint64_t largest_tile_with_halo = 0;
+  /// Tiles (counted once a finish pass) whose finish ran in parts: the whole tile with its
+  /// halo would not have fitted the budget.
+  std::uint64_t finish_tiles_in_parts = 0;
   /// The most tiles in flight in a step's pipeline (OutOfCoreOptions::tiles_in_flight, or
   /// fewer; every tile of a step while positions are held in the lists' order).
   int tiles_in_flight = 1;

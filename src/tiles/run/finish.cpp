@@ -5,14 +5,14 @@ namespace pointfair::tiles::detail {
 
 // ---- the quadric finish -------------------------------------------------------------------------
 
-std::optional<FinishLists> Run::finish_lists(std::size_t t, double halo, const LocalSet& local,
+std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const LocalSet& local,
                                              const QuadricProjectionParams& q) const {
-  // finish_with_quadrics's lists on the tile's gathered points (sorted by original index: the
+  // finish_with_quadrics's lists on a tile's (or a part's, in box `own`) gathered points (sorted by original index: the
   // canonical tie rule). Empty (the halo must grow) unless every row is certain to be the
   // in-core one: its farthest entry lies inside what was gathered.
   constexpr double inf = std::numeric_limits<double>::infinity();
   const std::size_t n = local.positions.size(), kk = static_cast<std::size_t>(q.k);
-  const bool all = covers_all(t, halo);
+  const bool all = covers_all(own, halo);
   FinishLists lists;
   lists.fits = build_neighborhoods(local.positions, local.queries, q.k, inf);
   std::vector<char> in_tile(n, 0), named(n, 0);
@@ -33,7 +33,7 @@ std::optional<FinishLists> Run::finish_lists(std::size_t t, double halo, const L
   const Neighborhoods near = build_neighborhoods(local.positions, halo_queries, m, inf);
   if (!all) {
     // A halo point's ball lies inside the box around the tile that was gathered.
-    const Box& b = tiles_.bounds[t];
+    const Box& b = own;
     for (std::size_t r = 0; r < near.size(); ++r) {
       const std::span<const Index> row = near.of(r);
       if (row.size() < static_cast<std::size_t>(m)) return std::nullopt;
@@ -63,40 +63,132 @@ std::optional<FinishLists> Run::finish_lists(std::size_t t, double halo, const L
   return lists;
 }
 
+namespace {
+
+// An upper bound of what finish_part holds for `gathered` points of which `queries` are the
+// part's (fits of k, normals of m neighbours): the gathered set (40 bytes a point; its
+// entries, 48, while gathering), the cell grid (50), the normals' rows and those that built
+// the halo's (8m + 10), the normals (24); each query's row in the set (4), its fit (4k + 2),
+// its result and anchor (48).
+std::uint64_t finish_part_bytes(std::uint64_t gathered, std::uint64_t queries, int k, int m) {
+  const auto mm = static_cast<std::uint64_t>(m), kk = static_cast<std::uint64_t>(k);
+  return gathered * (40 + 50 + 8 * mm + 10 + 24) + queries * (4 + 4 * kk + 2 + 48);
+}
+
+// The box of `points`' rows `rows`.
+Box box_of(std::span<const Vec3> points, std::span<const std::uint64_t> rows) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  Box b = {inf, inf, inf, -inf, -inf, -inf};
+  for (const std::uint64_t r : rows)
+    for (std::size_t c = 0; c < 3; ++c) {
+      b[c] = std::min(b[c], points[r][static_cast<Eigen::Index>(c)]);
+      b[c + 3] = std::max(b[c + 3], points[r][static_cast<Eigen::Index>(c)]);
+    }
+  return b;
+}
+
+// `part` (at least two rows) halved across the longest side of its box, each half with the
+// box of its points.
+std::array<TilePart, 2> split_part(const TilePart& part, std::span<const Vec3> points) {
+  std::size_t axis = 0;
+  for (std::size_t c = 1; c < 3; ++c)
+    if (part.box[c + 3] - part.box[c] > part.box[axis + 3] - part.box[axis]) axis = c;
+  const double lo = part.box[axis], hi = part.box[axis + 3], middle = lo + 0.5 * (hi - lo);
+  std::array<TilePart, 2> halves;
+  if (hi > lo) {
+    for (const std::uint64_t r : part.rows) halves[points[r][static_cast<Eigen::Index>(axis)] < middle ? 0 : 1].rows.push_back(r);
+  } else {
+    // Every point at the same place: halves of the rows.
+    const auto half = static_cast<std::ptrdiff_t>(part.rows.size() / 2);
+    halves[0].rows.assign(part.rows.begin(), part.rows.begin() + half);
+    halves[1].rows.assign(part.rows.begin() + half, part.rows.end());
+  }
+  for (TilePart& h : halves) h.box = box_of(points, h.rows);
+  assert(!halves[0].rows.empty() && !halves[1].rows.empty());
+  return halves;
+}
+
+}  // namespace
+
 void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::span<const Vec3> anchors,
                       std::vector<Vec3>& result) {
   // One pass of finish_with_quadrics for tile t's points, from the positions in
   // neighbor_source_: into `result`, in row order; with `anchors` (the tile's input points,
-  // in row order), the anchors placed on the fits instead.
-  for (double halo = knn_first_halo(t, q.k);; halo *= 2.0) {
-    LocalSet local = gather_local(t, halo);
-    std::optional<FinishLists> lists = finish_lists(t, halo, local, q);
-    // The cell grids held about 48 bytes a point while they searched.
-    const std::uint64_t searched = local.bytes() + local.positions.size() * 50;
+  // in row order), the anchors placed on the fits instead. Each point's result depends on its
+  // neighbours alone, so a tile whose halo would not fit the budget is finished in parts
+  // (halved until each fits): the same bits.
+  const std::uint64_t rows = tiles_.rows(t);
+  result.resize(rows);
+  std::uint64_t held = bytes(result) + anchors.size() * sizeof(Vec3);
+  if (finish_part(t, {.box = tiles_.bounds[t], .rows = {}}, q, anchors, result, held)) return;
+  ++finish_tiles_in_parts_;
+  std::vector<Vec3> points(rows);
+  file().dataset(neighbor_source_).read_rows(tiles_.offsets[t], rows, points.data()->data());
+  held += bytes(points) + rows * sizeof(std::uint64_t);  // and the parts' rows
+  std::vector<TilePart> parts(1);
+  parts[0].rows.resize(rows);
+  std::iota(parts[0].rows.begin(), parts[0].rows.end(), std::uint64_t{0});
+  parts[0].box = tiles_.bounds[t];
+  while (!parts.empty()) {
+    TilePart part = std::move(parts.back());
+    parts.pop_back();
+    if (finish_part(t, part, q, anchors, result, held)) continue;
+    if (part.rows.size() < 2) {
+      // Not even one point's neighbours fit: refused with what the smallest part needs.
+      account(held + finish_part_bytes(static_cast<std::uint64_t>(q.k) * 8, 1, q.k, q.normal_neighbors));
+      assert(false && "account() refuses what finish_part found too large");
+    }
+    for (TilePart& half : split_part(part, points)) parts.push_back(std::move(half));
+  }
+}
+
+bool Run::finish_part(std::size_t t, const TilePart& part, const QuadricProjectionParams& q,
+                      std::span<const Vec3> anchors, std::vector<Vec3>& result, std::uint64_t held) {
+  const bool whole = part.rows.empty();
+  const std::uint64_t queries = whole ? tiles_.rows(t) : part.rows.size();
+  const int m = std::min(q.k, q.normal_neighbors);
+  const std::uint64_t fixed = persistent_bytes() + held;
+  const std::uint64_t per_point = finish_part_bytes(1, 0, q.k, m);
+  const std::uint64_t for_queries = finish_part_bytes(0, queries, q.k, m);
+  if (fixed + for_queries + queries * per_point > options_.memory_budget) return false;
+  const std::uint64_t max_points = (options_.memory_budget - fixed - for_queries) / per_point;
+  std::vector<Vec3> part_result, part_anchors;
+  for (double halo = knn_first_halo(part.box, queries, q.k);; halo *= 2.0) {
+    std::optional<LocalSet> local = gather_part(t, halo, part, max_points);
+    if (!local) return false;
+    std::optional<FinishLists> lists = finish_lists(part.box, halo, *local, q);
+    const std::uint64_t needed = held + finish_part_bytes(local->positions.size(), queries, q.k, m);
     if (!lists) {
-      account(searched);
+      account(needed);
       continue;
     }
     // The fits read each neighbour's position and normal: as in finish_with_quadrics, they run
     // on the gathered points stored in Morton order, the lists relabelled (each fit sees the
     // same neighbours in the same order: the same bits), so that those reads stay in cache.
     // The order and its inverse (8 bytes a point) take the room of the gathered points'
-    // container rows and original indices (16), which nothing reads from here on: the tile
-    // needs no more memory than `searched` counted.
-    std::vector<std::uint64_t>().swap(local.rows);
-    std::vector<std::uint64_t>().swap(local.original);
-    const std::vector<Index> order = spatial_order(local.positions);
+    // container rows and original indices (16), which nothing reads from here on.
+    std::vector<std::uint64_t>().swap(local->rows);
+    std::vector<std::uint64_t>().swap(local->original);
+    const std::vector<Index> order = spatial_order(local->positions);
     const std::vector<Index> row_of = inverse_permutation(order);
-    permute_in_place(local.positions, order);
+    permute_in_place(local->positions, order);
     permute_neighborhoods_in_place(lists->normals, order, row_of);
     relabel_neighborhoods_in_place(lists->fits, row_of);
-    for (Index& i : local.queries) i = row_of[i];
-    const std::vector<Vec3> normals = neighbourhood_normals(local.positions, lists->normals, q);
-    result.resize(local.queries.size());
-    project_rows_to_quadrics(local.positions, normals, lists->fits, local.queries, q, result, anchors);
-    largest_local_ = std::max<std::uint64_t>(largest_local_, local.positions.size());
-    account(searched + lists->bytes() + bytes(normals) + bytes(result));
-    return;
+    for (Index& i : local->queries) i = row_of[i];
+    const std::vector<Vec3> normals = neighbourhood_normals(local->positions, lists->normals, q);
+    if (whole) {
+      project_rows_to_quadrics(local->positions, normals, lists->fits, local->queries, q, result, anchors);
+    } else {
+      part_result.resize(queries);
+      part_anchors.clear();
+      if (!anchors.empty())
+        for (const std::uint64_t r : part.rows) part_anchors.push_back(anchors[r]);
+      project_rows_to_quadrics(local->positions, normals, lists->fits, local->queries, q, part_result, part_anchors);
+      for (std::size_t i = 0; i < part.rows.size(); ++i) result[part.rows[i]] = part_result[i];
+    }
+    largest_local_ = std::max<std::uint64_t>(largest_local_, local->positions.size());
+    account(needed);
+    return true;
   }
 }
 
@@ -183,8 +275,8 @@ std::size_t Run::write_attributes(double lambda) {
   std::vector<Vec3> local, vn, vd1, vd2;
   std::vector<double> vk1, vk2, vmean, vlap;
   std::vector<std::uint8_t> vfeature;
-  Neighborhoods extended;
   std::size_t degenerate = 0;
+  const Vec3 centre = box.center();
   const std::uint64_t writes = tiles_to_write();
   constexpr h5::Transfer together = h5::Transfer::Collective;
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
@@ -194,20 +286,11 @@ std::size_t Run::write_attributes(double lambda) {
     const TileNeighbors& nb = *lists;
     const bool cached = caching_ && cache_[t] == lists;
     read_tile_positions(t, nb, source, local, vn);  // vn: the rows in row order, until it is written below
-    // compute_attributes itself on the tile: the halo rows get no neighbours (they are
-    // evaluated elsewhere), and two extra points at the corners of the whole cloud's bounding
-    // box make its centre, which orients the normals, the in-core one.
-    const std::size_t extra = local.size() - rows + 2;
-    local.push_back(box.min());
-    local.push_back(box.max());
-    extended.stride = nb.local.stride;
-    extended.eps = nb.local.eps;
-    extended.indices = nb.local.indices;
-    extended.indices.resize(local.size() * static_cast<std::size_t>(extended.stride), 0);
-    extended.counts = nb.local.counts;
-    extended.counts.resize(local.size(), 0);
-    const PointAttributes pa = compute_attributes(local, extended, params_.flow, lambda);
-    degenerate += pa.degenerate - extra;
+    // compute_attributes of the tile's rows (the first of its lists; the halo only their
+    // neighbours), the normals oriented away from the centre of the whole cloud's box.
+    const PointAttributes pa = compute_attributes(local, NeighborhoodsView(nb.local).rows(0, rows), centre,
+                                                  params_.flow, lambda);
+    degenerate += pa.degenerate;
     // Back from the lists' order to row order.
     nb.to_rows(pa.normal, vn, rows);
     nb.to_rows(pa.d1, vd1, rows);
@@ -225,8 +308,8 @@ std::size_t Run::write_attributes(double lambda) {
     mean.write_rows(begin, rows, vmean.data(), together);
     lap.write_rows(begin, rows, vlap.data(), together);
     feature.write_rows(begin, rows, vfeature.data(), together);
-    account(bytes(local) + bytes(extended.indices) + bytes(extended.counts) +
-            pa.normal.size() * (9 * sizeof(double) + 4 * sizeof(double) + 1) + 3 * bytes(vn) + 4 * bytes(vk1) +
+    account(bytes(local) + pa.normal.size() * (9 * sizeof(double) + 4 * sizeof(double) + 1) + 3 * bytes(vn) +
+            4 * bytes(vk1) +
             bytes(vfeature) + (cached ? 0 : nb.bytes()));
     progress("attributes", t + 1 - first_tile_, end_tile_ - first_tile_);
   }

@@ -5,8 +5,9 @@ namespace pointfair::tiles::detail {
 
 // ---- neighbourhoods ---------------------------------------------------------------------------
 
-bool Run::covers_all(std::size_t t, double halo) const {
-  const Box& b = tiles_.bounds[t];
+bool Run::covers_all(std::size_t t, double halo) const { return covers_all(tiles_.bounds[t], halo); }
+
+bool Run::covers_all(const Box& b, double halo) const {
   for (std::size_t c = 0; c < 3; ++c)
     if (b[c] - halo > global_bounds_[c] || b[c + 3] + halo < global_bounds_[c + 3]) return false;
   return true;
@@ -18,6 +19,10 @@ double Run::first_halo(std::size_t t) const {
 }
 
 double Run::knn_first_halo(std::size_t t, int neighbors) const {
+  return knn_first_halo(tiles_.bounds[t], tiles_.rows(t), neighbors);
+}
+
+double Run::knn_first_halo(const Box& b, std::uint64_t box_rows, int neighbors) const {
   // Unbounded eps: start from the radius of a disc holding k+1 points of a surface patch as
   // dense as the tile (its side over the square root of its points, times sqrt((k+1)/pi)),
   // with a margin of 1.5, and grow until every (k+1)-th neighbour lies inside the halo. (Twice
@@ -26,12 +31,11 @@ double Run::knn_first_halo(std::size_t t, int neighbors) const {
   // (a sliver of a surface that crosses it) would still start with a halo of many times its
   // points: it starts no wider than four times the halo of the whole cloud taken as one such
   // patch.
-  const Box& b = tiles_.bounds[t];
   const Box& g = global_bounds_;
   const double side = std::max({b[3] - b[0], b[4] - b[1], b[5] - b[2], 0.0});
   const double cloud_side = std::max({g[3] - g[0], g[4] - g[1], g[5] - g[2], 0.0});
   const double diag = std::hypot(g[3] - g[0], g[4] - g[1], g[5] - g[2]);
-  const double rows = static_cast<double>(std::max<std::uint64_t>(1, tiles_.rows(t)));
+  const double rows = static_cast<double>(std::max<std::uint64_t>(1, box_rows));
   const double points = static_cast<double>(std::max<std::uint64_t>(1, n_));
   const double disc = 1.5 * std::sqrt((neighbors + 1.0) / std::numbers::pi);
   const double tile_guess = disc * side / std::sqrt(rows);
@@ -40,9 +44,18 @@ double Run::knn_first_halo(std::size_t t, int neighbors) const {
 }
 
 LocalSet Run::gather_local(std::size_t t, double halo) const {
+  std::optional<LocalSet> s = gather_part(t, halo, {.box = tiles_.bounds[t], .rows = {}},
+                                          std::numeric_limits<std::uint64_t>::max());
+  assert(s && "gathering without a limit always gives a set");
+  return std::move(*s);
+}
+
+std::optional<LocalSet> Run::gather_part(std::size_t t, double halo, const TilePart& part,
+                                         std::uint64_t max_points) const {
   const h5::Dataset pos = file().dataset(neighbor_source_);
   const h5::Dataset orig = file().dataset(layout::original_index);
-  const Box& own = tiles_.bounds[t];
+  const Box& tile_box = tiles_.bounds[t];
+  const Box& own = part.box;
   Box grown = own;
   for (std::size_t c = 0; c < 3; ++c) {
     grown[c] -= halo;
@@ -51,7 +64,11 @@ LocalSet Run::gather_local(std::size_t t, double halo) const {
   struct Entry {
     std::uint64_t original, row;
     Vec3 p;
+    std::int64_t query;  // the entry's place among the part's rows, or -1
   };
+  const bool whole = part.rows.empty();
+  const std::uint64_t queries = whole ? tiles_.rows(t) : part.rows.size();
+  std::size_t next_part_row = 0;  // part.rows ascend, as the tile's rows are read
   std::vector<Entry> entries;
   std::vector<double> xyz;
   std::vector<std::uint64_t> index;
@@ -67,38 +84,49 @@ LocalSet Run::gather_local(std::size_t t, double halo) const {
         const Vec3 p(xyz[3 * r], xyz[3 * r + 1], xyz[3 * r + 2]);
         if (!p.allFinite())
           file().fail(neighbor_source_, "row " + std::to_string(first + r) + " has a non-finite coordinate");
-        bool inside = u == t;
-        // The halos of the other tiles are found through this tile's bounds: a point outside
-        // them (a container that contradicts itself) would silently change the result.
-        for (std::size_t c = 0; c < 3 && inside; ++c) {
-          const double v = p[static_cast<Eigen::Index>(c)];
-          if (!(v >= own[c] && v <= own[c + 3]))
-            file().fail(layout::tile_bounds, "row " + std::to_string(first + r) + " lies outside the bounds of its tile " +
-                                                 std::to_string(t) +
-                                                 ": the container contradicts itself (import the point file again)");
+        std::int64_t query = -1;
+        if (u == t) {
+          // The halos of the other tiles are found through this tile's bounds: a point outside
+          // them (a container that contradicts itself) would silently change the result.
+          for (std::size_t c = 0; c < 3; ++c) {
+            const double v = p[static_cast<Eigen::Index>(c)];
+            if (!(v >= tile_box[c] && v <= tile_box[c + 3]))
+              file().fail(layout::tile_bounds, "row " + std::to_string(first + r) +
+                                                   " lies outside the bounds of its tile " + std::to_string(t) +
+                                                   ": the container contradicts itself (import the point file again)");
+          }
+          const std::uint64_t tile_row = first + r - tiles_.offsets[t];
+          if (whole) {
+            query = static_cast<std::int64_t>(tile_row);
+          } else if (next_part_row < part.rows.size() && part.rows[next_part_row] == tile_row) {
+            query = static_cast<std::int64_t>(next_part_row++);
+          }
         }
+        bool inside = query >= 0;
         if (!inside) {
           inside = true;
           for (std::size_t c = 0; c < 3 && inside; ++c)
             inside = p[static_cast<Eigen::Index>(c)] >= grown[c] && p[static_cast<Eigen::Index>(c)] <= grown[c + 3];
         }
-        if (inside) entries.push_back({index[r], first + r, p});
+        if (!inside) continue;
+        if (entries.size() >= max_points) return std::nullopt;
+        entries.push_back({index[r], first + r, p, query});
       }
     }
   }
+  assert(whole || next_part_row == part.rows.size());
   // Local indices ascending with the original index: the tie rule of the canonical order.
   std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) { return a.original < b.original; });
   LocalSet s;
   s.positions.reserve(entries.size());
   s.rows.reserve(entries.size());
   s.original.reserve(entries.size());
-  s.queries.assign(tiles_.rows(t), 0);
-  const std::uint64_t begin = tiles_.offsets[t], end = tiles_.offsets[t + 1];
+  s.queries.assign(queries, 0);
   for (std::size_t i = 0; i < entries.size(); ++i) {
     s.positions.push_back(entries[i].p);
     s.rows.push_back(entries[i].row);
     s.original.push_back(entries[i].original);
-    if (entries[i].row >= begin && entries[i].row < end) s.queries[entries[i].row - begin] = static_cast<Index>(i);
+    if (entries[i].query >= 0) s.queries[static_cast<std::size_t>(entries[i].query)] = static_cast<Index>(i);
   }
   return s;
 }

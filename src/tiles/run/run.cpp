@@ -397,6 +397,7 @@ OutOfCoreReport Run::run() {
     report.tiles_in_flight = static_cast<int>(std::max(slots_, most_in_flight_));
     report.peak_accounted_bytes = peak_;
     report.largest_tile_with_halo = largest_local_;
+    report.finish_tiles_in_parts = finish_tiles_in_parts_;
     file_.reset();
     return report;
   }
@@ -425,6 +426,7 @@ OutOfCoreReport Run::run() {
   report.tiles_in_flight = static_cast<int>(std::max(slots_, most_in_flight_));
   report.peak_accounted_bytes = peak_;
   report.largest_tile_with_halo = largest_local_;
+  report.finish_tiles_in_parts = finish_tiles_in_parts_;
   return report;
 }
 

@@ -12,6 +12,7 @@
 //   finish.cpp         the quadric finish, the attributes and the end
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <atomic>
 #include <cctype>
 #include <chrono>
@@ -229,8 +230,15 @@ class Run {
   void for_each_sample_knn(std::uint64_t stride, int want, const char* stage, Measure&& measure);
   double first_halo(std::size_t t) const;
   double knn_first_halo(std::size_t t, int neighbors) const;
+  // The first halo of a box holding `box_rows` points.
+  double knn_first_halo(const Box& box, std::uint64_t box_rows, int neighbors) const;
   bool covers_all(std::size_t t, double halo) const;
+  bool covers_all(const Box& box, double halo) const;
   LocalSet gather_local(std::size_t t, double halo) const;
+  // Part `part` of tile t with its halo (LocalSet::queries: the part's rows); nullopt when it
+  // holds more than `max_points` points.
+  std::optional<LocalSet> gather_part(std::size_t t, double halo, const TilePart& part,
+                                      std::uint64_t max_points) const;
   void prepare_lambda_sample();
   // The automatic lambda of the positions last named by load_sample_positions (and, when the
   // sample is gathered, brought up to date by the steps' writes).
@@ -303,10 +311,14 @@ class Run {
   void copy_halo(std::vector<Vec3>& buffer, std::size_t t) const;
   void release_positions();
   bool run_finish(OutOfCoreReport& report);
-  std::optional<FinishLists> finish_lists(std::size_t t, double halo, const LocalSet& local,
+  std::optional<FinishLists> finish_lists(const Box& own, double halo, const LocalSet& local,
                                           const QuadricProjectionParams& q) const;
   void finish_tile(std::size_t t, const QuadricProjectionParams& q, std::span<const Vec3> anchors,
                    std::vector<Vec3>& result);
+  // One pass of the finish for `part` of tile t into `result` (the tile's rows); false when
+  // the part with its halo would not fit the budget beside `held` bytes.
+  bool finish_part(std::size_t t, const TilePart& part, const QuadricProjectionParams& q,
+                   std::span<const Vec3> anchors, std::vector<Vec3>& result, std::uint64_t held);
   std::size_t write_attributes(double lambda);
   void finish(std::size_t attributes_degenerate, double lambda);
   void account(std::uint64_t working);
@@ -468,6 +480,7 @@ class Run {
   std::uint64_t peak_ = 0;
   std::uint64_t max_working_ = 0;
   std::uint64_t largest_local_ = 0;
+  std::uint64_t finish_tiles_in_parts_ = 0;
   // Tiles in flight in the step pipeline, and the bytes one of them may hold.
   std::uint64_t slots_ = 1;
   // The most tiles a step had in flight (all of them in a list-order step).

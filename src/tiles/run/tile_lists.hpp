@@ -7,6 +7,7 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
+#include "pointfair/tiles/tiling.hpp"
 #include "vector_bytes.hpp"
 
 namespace pointfair::tiles::detail {
@@ -20,6 +21,14 @@ struct LocalSet {
   std::uint64_t bytes() const {
     return detail::bytes(positions) + detail::bytes(rows) + detail::bytes(original) + detail::bytes(queries);
   }
+};
+
+// A part of one tile that the quadric finish gathers on its own when the whole tile's halo
+// would not fit the budget: the tile's rows `rows` (ascending, counted from the tile's first;
+// empty: every row), all inside `box`.
+struct TilePart {
+  Box box;
+  std::vector<std::uint64_t> rows;
 };
 
 // The quadric finish's lists of one tile's gathered points (LocalSet, local indices): each
