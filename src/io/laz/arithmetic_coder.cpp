@@ -39,6 +39,12 @@ void BitModel::update() {
 SymbolModel::SymbolModel(std::uint32_t symbol_count_)
     : symbols(symbol_count_), last_symbol(symbol_count_ - 1), distribution(symbol_count_), symbol_count(symbol_count_) {
   assert(symbols >= 2 && symbols <= 2048);
+  if (symbols > 16) {
+    unsigned table_bits = 3;
+    while (symbols > (1u << (table_bits + 2))) ++table_bits;
+    decoder_table.assign((std::size_t{1} << table_bits) + 2, 0);
+    table_shift = kSymbolLengthShift - table_bits;
+  }
   reset();
 }
 
@@ -63,6 +69,16 @@ void SymbolModel::update() {
   for (std::uint32_t k = 0; k < symbols; ++k) {
     distribution[k] = (scale * sum) >> (31 - kSymbolLengthShift);
     sum += symbol_count[k];
+  }
+  if (!decoder_table.empty()) {
+    const std::size_t table_size = decoder_table.size() - 2;
+    std::size_t s = 0;
+    for (std::uint32_t k = 0; k < symbols; ++k) {
+      const std::size_t w = distribution[k] >> table_shift;
+      while (s < w) decoder_table[++s] = k - 1;
+    }
+    decoder_table[0] = 0;
+    while (s <= table_size) decoder_table[++s] = symbols - 1;
   }
   update_cycle = (5 * update_cycle) >> 2;
   const std::uint32_t max_cycle = (symbols + 6) << 3;
@@ -100,21 +116,37 @@ std::uint32_t ArithmeticDecoder::decode_bit(BitModel& m) {
 }
 
 std::uint32_t ArithmeticDecoder::decode_symbol(SymbolModel& m) {
-  // Bisection for the symbol whose cumulative interval holds the value.
+  // Bisection for the symbol whose cumulative interval holds the value: distribution[k] *
+  // length > value exactly when distribution[k] > value / length (integer division), so a
+  // table over value / length narrows where it starts.
   std::uint32_t y = length_;
   std::uint32_t x = 0, symbol = 0, n = m.symbols;
   length_ >>= kSymbolLengthShift;
-  std::uint32_t k = n >> 1;
-  do {
-    const std::uint32_t z = length_ * m.distribution[k];
-    if (z > value_) {
-      n = k;
-      y = z;
-    } else {
-      symbol = k;
-      x = z;
+  if (!m.decoder_table.empty()) {
+    const std::uint32_t scaled = value_ / length_;
+    const std::uint32_t t = scaled >> m.table_shift;
+    symbol = m.decoder_table[t];
+    n = m.decoder_table[t + 1] + 1;
+    while (n > symbol + 1) {
+      const std::uint32_t k = (symbol + n) >> 1;
+      if (m.distribution[k] > scaled) n = k;
+      else symbol = k;
     }
-  } while ((k = (symbol + n) >> 1) != symbol);
+    x = m.distribution[symbol] * length_;
+    if (symbol != m.last_symbol) y = m.distribution[symbol + 1] * length_;
+  } else {
+    std::uint32_t k = n >> 1;
+    do {
+      const std::uint32_t z = length_ * m.distribution[k];
+      if (z > value_) {
+        n = k;
+        y = z;
+      } else {
+        symbol = k;
+        x = z;
+      }
+    } while ((k = (symbol + n) >> 1) != symbol);
+  }
   value_ -= x;
   length_ = y - x;
   if (length_ < kMinLength) renormalise();

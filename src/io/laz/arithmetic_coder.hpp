@@ -38,6 +38,11 @@ struct SymbolModel {
   std::vector<std::uint32_t> distribution;  // cumulative, in units of 2^-15
   std::vector<std::uint32_t> symbol_count;
   std::uint32_t total_count = 0, update_cycle = 0, symbols_until_update = 0;
+  /// For more than 16 symbols, the decoder's search starts from a table: entry t is the
+  /// last symbol whose cumulative value lies below t << table_shift (the bisection then
+  /// narrows between entries t and t + 1). Empty for 16 symbols or fewer.
+  std::vector<std::uint32_t> decoder_table;
+  unsigned table_shift = 0;
 };
 
 /// Decodes from `bytes` (which throw ChunkOverrun past their end).
