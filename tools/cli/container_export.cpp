@@ -221,7 +221,7 @@ SelectedExportSummary export_selected(const fs::path& container, const fs::path&
     if (const auto count = probe->count()) probe->skip(*count);
     schema = probe->schema();
   }
-  summary.points = count_points(source);
+  summary.points = io::count_points(source);
   const bool normals = !container.empty() && !io::normal_columns(schema).empty();
   const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
   const auto chunk_points =

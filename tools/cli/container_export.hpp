@@ -7,6 +7,7 @@
 
 #include "method_options.hpp"
 #include "pointfair/io/point_selection.hpp"
+#include "pointfair/tiles/budget.hpp"
 
 namespace pointfair::cli {
 
@@ -16,7 +17,7 @@ struct ContainerExport {
   /// Write the input positions even when the container holds a finished run.
   bool input_positions = false;
   /// Bytes of points held at a time (the chunk, its result columns and the reader's scratch).
-  std::uint64_t memory_budget = std::uint64_t{256} << 20;
+  std::uint64_t memory_budget = tiles::kDefaultMemoryBudget;
 };
 
 struct ExportSummary {
