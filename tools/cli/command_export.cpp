@@ -41,7 +41,7 @@ int run_export(const Args& args) {
   require_las_output(out.las, output);
   if (!tiles::is_container_path(input)) throw UsageError("pointfair export: IN must be a .h5 file, got '" + input + "'");
   io::require_output_path(output);
-  ContainerExport options;
+  tiles::StreamExportOptions options;
   options.original_order = !tile_order;
   options.input_positions = input_positions;
   options.memory_budget = budget;

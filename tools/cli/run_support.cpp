@@ -34,13 +34,17 @@ std::optional<io::PlyEncoding> ply_encoding(const std::string& encoding) {
   return std::nullopt;
 }
 
-void write_output(const std::filesystem::path& path, const io::PointTable& table,
-                  const OutputOptions& output, const std::filesystem::path& input) {
+io::WriteOptions write_options(const OutputOptions& output, const std::filesystem::path& input) {
   io::WriteOptions options;
   options.input = input;
   options.ply_encoding = ply_encoding(output.encoding);
   options.las = output.las;
-  io::write_points(path, table, options);
+  return options;
+}
+
+void write_output(const std::filesystem::path& path, const io::PointTable& table,
+                  const OutputOptions& output, const std::filesystem::path& input) {
+  io::write_points(path, table, write_options(output, input));
 }
 
 bool fits_float(double value) {

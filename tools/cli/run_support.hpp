@@ -11,6 +11,7 @@
 #include "json_writer.hpp"
 #include "method_options.hpp"
 #include "pointfair/io/ply.hpp"
+#include "pointfair/io/point_file.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/smooth.hpp"
 
@@ -24,6 +25,10 @@ io::PointTable read_input(const std::filesystem::path& path, bool quiet);
 
 /// The PLY encoding of --encoding ("binary", "binary-be", "ascii"); empty keeps the source's.
 std::optional<io::PlyEncoding> ply_encoding(const std::string& encoding);
+
+/// The writer's options of `output` (--encoding, the LAS options), refusing to overwrite
+/// `input` when given.
+io::WriteOptions write_options(const OutputOptions& output, const std::filesystem::path& input = {});
 
 /// Writes `table` atomically with the chosen encoding, refusing to overwrite `input`.
 void write_output(const std::filesystem::path& path, const io::PointTable& table,

@@ -89,7 +89,7 @@ void import_input(const OutOfCoreFileSmooth& run, const fs::path& folder, const 
 }
 
 JsonObject summary_json(const OutOfCoreFileSmooth& run, const tiles::OutOfCoreReport& report,
-                        const SelectedExportSummary& selected, double seconds_write, double seconds_total,
+                        const tiles::SelectedExportReport& selected, double seconds_write, double seconds_total,
                         double rate) {
   const SmoothParams& params = run.params;
   const bool selecting = !run.select.selection.all();
@@ -227,16 +227,16 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
   if (container_out) guard.done = true;  // a container imported again: its folder goes
 
   double seconds_write = 0.0;
-  SelectedExportSummary selected;
+  tiles::SelectedExportReport selected;
   if (selecting) {
     const auto t0 = Clock::now();
-    selected = export_selected(result.nothing_selected ? fs::path() : run_output, input, run.select.selection,
-                               output_path, output, ooc.memory_budget);
+    selected = tiles::export_selected(result.nothing_selected ? fs::path() : run_output, input, run.select.selection,
+                                      output_path, write_options(output, input), ooc.memory_budget);
     guard.done = true;
     seconds_write = seconds_since(t0);
   } else if (!container_out) {
     const auto t0 = Clock::now();
-    ContainerExport exported;
+    tiles::StreamExportOptions exported;
     exported.memory_budget = ooc.memory_budget;
     export_container(run_output, output_path, output, exported, input);
     guard.done = true;
