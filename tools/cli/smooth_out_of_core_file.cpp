@@ -111,7 +111,7 @@ JsonObject summary_json(const OutOfCoreFileSmooth& run, const tiles::OutOfCoreRe
                                           : std::string("unknown (the steps ended before this resume)"));
   j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
   j.add("quadric_finish", finish_json(params));
-  j.add("placement", params.finish && params.placement == Placement::AlongNormal ? "normal" : "free");
+  j.add("placement", name_of(params.finish ? params.placement : Placement::Free));
   j.add("memory_budget_bytes", static_cast<std::size_t>(run.options.memory_budget));
   j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
   j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));
