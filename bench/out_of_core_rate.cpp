@@ -33,7 +33,7 @@ OutOfCoreBench::OutOfCoreBench(const std::vector<Vec3>& cloud, int k, const OutO
   io::write_points(ply, table);
   tiles::StreamImportOptions import;
   import.container.tiling.max_tile_points = tile_points_;
-  import.memory_budget = std::max(options.memory_budget, std::uint64_t{16} << 20);
+  import.memory_budget = std::max(options.memory_budget, tiles::kMinImportBudget);
   tiles_ = tiles::import_points(ply, container_, import).tiles;
   fs::remove(ply);
 }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "pointfair/smooth.hpp"
+#include "pointfair/tiles/budget.hpp"
 
 namespace pointfair::bench {
 
@@ -20,7 +21,7 @@ constexpr int kStreamedTemporalBlock = 4;
 
 struct OutOfCoreRateOptions {
   /// The run's memory budget (OutOfCoreOptions::memory_budget), bytes.
-  std::uint64_t memory_budget = std::uint64_t{256} << 20;
+  std::uint64_t memory_budget = tiles::kDefaultMemoryBudget;
   /// Most points per tile of the import; 0: the rule `pointfair import --memory-budget` uses.
   std::uint64_t tile_points = 0;
   /// Steps per load of a tile (OutOfCoreOptions::temporal_block).

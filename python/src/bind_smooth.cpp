@@ -13,6 +13,7 @@
 #include "cli/smooth_point_file.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/tiles/out_of_core_decision.hpp"
 
 namespace pointfair::python {
 namespace {
@@ -157,7 +158,7 @@ py::dict smooth_file(const std::string& input, const std::string& output, const 
     const py::gil_scoped_release release;
     // The command's rule: containers, and point files whose in-core run does not fit the
     // budget, go out of core.
-    const bool out_of_core = cli::runs_out_of_core(input, output, o.params, o.memory_budget);
+    const bool out_of_core = tiles::runs_out_of_core(input, output, o.params, o.memory_budget);
     const ThreadCount threads(o.threads_given, o.output.threads);
     json = out_of_core ? smooth_file_out_of_core(input, output, o) : smooth_file_in_core(input, output, o);
   }

@@ -92,4 +92,13 @@ std::unique_ptr<PointChunkWriter> open_point_writer(const fs::path& file, const 
   return open_xyz_writer(file, schema, count);
 }
 
+std::uint64_t count_points(const fs::path& file) {
+  const auto reader = open_point_reader(file);
+  if (reader->count()) return *reader->count();
+  PointTable chunk;
+  while (reader->read(chunk, 1u << 16) > 0) {
+  }
+  return reader->points_read();
+}
+
 }  // namespace pointfair::io

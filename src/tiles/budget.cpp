@@ -2,6 +2,10 @@
 
 #include <algorithm>
 
+#include "pointfair/finish/quadric_projection.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
+#include "pointfair/smooth.hpp"
+
 namespace pointfair::tiles {
 
 namespace {
@@ -22,6 +26,17 @@ std::uint64_t lambda_sample_room(std::uint64_t budget) {
 std::uint64_t tile_points_for_budget(std::uint64_t budget, int k) {
   const std::uint64_t usable = budget - lambda_sample_room(budget);
   return std::max<std::uint64_t>(64, usable / bytes_per_tile_point(k));
+}
+
+int flow_k_bound(const SmoothParams& params) { return params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k; }
+
+std::uint64_t run_tile_points(std::uint64_t budget, const SmoothParams& params) {
+  const int flow_k = flow_k_bound(params);
+  return tile_points_for_budget(budget, params.finish ? std::max(flow_k, params.finish->k) : flow_k);
+}
+
+std::uint64_t import_tile_points(std::uint64_t budget) {
+  return tile_points_for_budget(budget, std::max(kAutoKMax, QuadricProjectionParams{}.k));
 }
 
 std::uint64_t budget_to_name(std::uint64_t needed) {

@@ -1,6 +1,7 @@
 #include "pointfair/tiles/container.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 
 #include "pointfair/common/version.hpp"
@@ -377,6 +378,12 @@ PointAttributes read_run_attributes(const fs::path& file, bool original_order) {
   if (f.has_attribute(layout::run_attributes, "degenerate"))
     a.degenerate = static_cast<std::size_t>(f.int_attribute(layout::run_attributes, "degenerate"));
   return a;
+}
+
+bool is_container_path(const fs::path& path) {
+  std::string e = path.extension().string();
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e == ".h5" || e == ".hdf5";
 }
 
 }  // namespace pointfair::tiles

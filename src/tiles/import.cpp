@@ -26,7 +26,6 @@ namespace {
 
 constexpr std::uint64_t kMaxHistogramCells = std::uint64_t{1} << 21;
 constexpr std::uint64_t kMaxGridCells = std::uint64_t{1} << 22;  // as make_tiling
-constexpr std::uint64_t kMinBudget = std::uint64_t{16} << 20;
 // The reader's own buffers (PLY block, file buffer), held besides its chunk.
 constexpr std::uint64_t kReaderBytes = std::uint64_t{6} << 20;
 constexpr std::uint32_t kNoTile = std::numeric_limits<std::uint32_t>::max();
@@ -785,7 +784,7 @@ void Import::write_file(const fs::path& temp) {
 
 StreamImportReport Import::run() {
   tiling_.validate();
-  require(options_.memory_budget >= kMinBudget, "the import's memory budget must be at least 16 MiB");
+  require(options_.memory_budget >= kMinImportBudget, "the import's memory budget must be at least 16 MiB");
   require(options_.read_chunk_points >= 1, "read chunk points must be >= 1");
   require(options_.container.chunk_rows >= 1, "chunk rows must be >= 1");
   require(options_.container.deflate >= 0 && options_.container.deflate <= 9, "deflate level must be in 0..9");

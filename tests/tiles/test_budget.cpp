@@ -3,9 +3,12 @@
 // bits; the budget a refusal names is taken.
 #include "pointfair/tiles/budget.hpp"
 
+#include <algorithm>
 #include <vector>
 
+#include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
 #include "tiles_test_util.hpp"
 
@@ -31,6 +34,27 @@ TEST(TileBudget, TilesGrowWithTheBudget) {
   EXPECT_EQ(budget_to_name(1), kMiB);
   EXPECT_EQ(budget_to_name(kMiB / 2), kMiB);
   EXPECT_EQ(budget_to_name(5 * kMiB / 2 + 1), 6 * kMiB);
+}
+
+// The k a run's tiles are sized for: the flow's (the largest automatic k when it is chosen)
+// and the finish's, the larger; an import sizes them for the defaults' largest.
+TEST(TileBudget, TilesAreSizedForTheLargestK) {
+  SmoothParams params;
+  params.finish.reset();
+  params.neighbors.k = 0;
+  EXPECT_EQ(flow_k_bound(params), kAutoKMax);
+  EXPECT_EQ(run_tile_points(kDefaultMemoryBudget, params), tile_points_for_budget(kDefaultMemoryBudget, kAutoKMax));
+  params.neighbors.k = 20;
+  EXPECT_EQ(flow_k_bound(params), 20);
+  EXPECT_EQ(run_tile_points(kDefaultMemoryBudget, params), tile_points_for_budget(kDefaultMemoryBudget, 20));
+  params.finish = QuadricProjectionParams{};
+  params.finish->k = 100;
+  EXPECT_EQ(run_tile_points(kDefaultMemoryBudget, params), tile_points_for_budget(kDefaultMemoryBudget, 100));
+  EXPECT_EQ(import_tile_points(kDefaultMemoryBudget),
+            tile_points_for_budget(kDefaultMemoryBudget, std::max(kAutoKMax, QuadricProjectionParams{}.k)));
+  EXPECT_EQ(kDefaultMemoryBudget, 256 * kMiB);
+  EXPECT_EQ(StreamImportOptions{}.memory_budget, kDefaultMemoryBudget);
+  EXPECT_EQ(OutOfCoreOptions{}.memory_budget, kDefaultMemoryBudget);
 }
 
 class BudgetTest : public test::TempDirTest {

@@ -8,6 +8,7 @@
 #include "out_of_core.hpp"
 #include "las_options.hpp"
 #include "run_support.hpp"
+#include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
 
 namespace pointfair::cli {
@@ -16,7 +17,7 @@ int run_export(const Args& args) {
   std::string input, output;
   OutputOptions out;
   bool tile_order = false, input_positions = false;
-  std::uint64_t budget = std::uint64_t{256} << 20;
+  std::uint64_t budget = tiles::kDefaultMemoryBudget;
   ArgumentParser parser("pointfair export",
                         "Writes the points of an HDF5 scan container to a point file, in the input's "
                         "point order. For a container holding a finished smoothing run, the smoothed "
@@ -38,9 +39,9 @@ int run_export(const Args& args) {
   parser.example("pointfair export city.h5 city-input.ply --input-positions --encoding ascii");
   if (!parser.parse(args)) return 0;
   require_las_output(out.las, output);
-  if (!is_container_path(input)) throw UsageError("pointfair export: IN must be a .h5 file, got '" + input + "'");
+  if (!tiles::is_container_path(input)) throw UsageError("pointfair export: IN must be a .h5 file, got '" + input + "'");
   io::require_output_path(output);
-  ContainerExport options;
+  tiles::StreamExportOptions options;
   options.original_order = !tile_order;
   options.input_positions = input_positions;
   options.memory_budget = budget;

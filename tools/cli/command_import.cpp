@@ -1,5 +1,4 @@
 // pointfair import IN OUT.h5: a point file into the tiled HDF5 scan container.
-#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -12,8 +11,6 @@
 #include "run_support.hpp"
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
-#include "pointfair/neighbors/neighborhood_size.hpp"
-#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/import.hpp"
@@ -22,7 +19,7 @@ namespace pointfair::cli {
 
 int run_import(const Args& args) {
   std::string input, output;
-  std::uint64_t budget = std::uint64_t{256} << 20;
+  std::uint64_t budget = tiles::kDefaultMemoryBudget;
   std::uint64_t tile_points = 0;
   double cell_size = 0.0;
   tiles::ImportOptions options;
@@ -67,14 +64,11 @@ int run_import(const Args& args) {
   parser.example("pointfair import city.las city.h5 --memory-budget 2G");
   parser.example("pointfair import city.las city.h5 --tile-points 500000 --deflate 4 --json");
   if (!parser.parse(args)) return 0;
-  if (!is_container_path(output)) throw UsageError("pointfair import: OUT must be a .h5 file, got '" + output + "'");
+  if (!tiles::is_container_path(output)) throw UsageError("pointfair import: OUT must be a .h5 file, got '" + output + "'");
   io::require_distinct(input, output);
 
   const auto t0 = std::chrono::steady_clock::now();
-  // Sized as smooth sizes its tiles under the same budget (the largest automatic k and the
-  // default finish's k), so that a run under this budget takes the container as it is.
-  const int k_bound = std::max(kAutoKMax, QuadricProjectionParams{}.k);
-  options.tiling.max_tile_points = tile_points > 0 ? tile_points : tiles::tile_points_for_budget(budget, k_bound);
+  options.tiling.max_tile_points = tile_points > 0 ? tile_points : tiles::import_tile_points(budget);
   options.tiling.cell_size = cell_size;
   options.source_name = std::filesystem::path(input).filename().string();
   options.source_size = input_file_size(input);

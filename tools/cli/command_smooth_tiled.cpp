@@ -15,6 +15,8 @@
 #include "smooth_out_of_core_file.hpp"
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/out_of_core_decision.hpp"
 
 namespace pointfair::cli {
 
@@ -22,7 +24,7 @@ bool wants_out_of_core(const Args& args) {
   for (const std::string& a : args) {
     if (a == "--help" || a == "-h") return false;
     if (a == "--memory-budget" || a.starts_with("--memory-budget=") || a == "--resume") return true;
-    if (!a.starts_with("--") && is_container_path(a)) return true;
+    if (!a.starts_with("--") && tiles::is_container_path(a)) return true;
   }
   return false;
 }
@@ -114,11 +116,11 @@ int run_smooth_out_of_core(const Args& args) {
   // The run's container holds the selected points only; the export walks the point file
   // and puts them back among the others.
   const bool selecting = !select.selection.all();
-  if (selecting && (is_container_path(input) || is_container_path(output_path)))
+  if (selecting && (tiles::is_container_path(input) || tiles::is_container_path(output_path)))
     throw UsageError(std::string(select.classes.empty() ? "--returns" : "--classes") +
                      " takes a point file in and out (a container holds only the points a run smooths)");
   io::require_output_path(output_path);
-  if (!runs_out_of_core(input, output_path, params, ooc.memory_budget, ooc.resume))
+  if (!tiles::runs_out_of_core(input, output_path, params, ooc.memory_budget, ooc.resume))
     return run_smooth(without_budget(args));
 
   // One progress line per phase of the run (not of the import), from the run's start.

@@ -3,21 +3,14 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <cctype>
 #include <cmath>
 #include <functional>
-#include <limits>
-#include <memory>
 #include <string>
 #include <vector>
 
-#include "out_of_core.hpp"
 #include "run_support.hpp"
 #include "pointfair/common/colour.hpp"
 #include "pointfair/io/attribute_roles.hpp"
-#include "pointfair/io/las.hpp"
-#include "pointfair/io/point_file.hpp"
-#include "pointfair/io/point_selection.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/container_reader.hpp"
 
@@ -53,30 +46,6 @@ void for_each_scalar_block(const fs::path& container, ColourBy by,
 }
 
 // An order-preserving key of a finite double.
-using ChunkVisitor = std::function<void(const io::PointTable&)>;
-
-// A LAS output from a float source (no integer grid of its own) whose grid the options do not
-// give (--scale and --offset): the grid depends on the bounds of every point, so a first pass
-// measures them, and the LAS writer streams with that grid (the same bytes as writing the
-// whole cloud at once).
-bool needs_las_bounds(const fs::path& output, const io::PointTable& schema, const OutputOptions& out,
-                      std::uint64_t points) {
-  return io::point_format_of(output) == io::PointFormat::Las && !schema.quantization &&
-         !(out.las.scale && out.las.offset) && points > 0;
-}
-
-// las_quantization_for the bounds of the chunks `for_each_chunk` calls its visitor with.
-io::PositionQuantization las_grid_of(const std::function<void(const ChunkVisitor&)>& for_each_chunk) {
-  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  for_each_chunk([&](const io::PointTable& chunk) {
-    for (const Vec3& p : chunk.positions) {
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-    }
-  });
-  return io::las_quantization_for(lo, hi);
-}
-
 std::uint64_t key_of(double v) {
   const auto bits = std::bit_cast<std::uint64_t>(v);
   return (bits >> 63) != 0 ? ~bits : bits | (std::uint64_t{1} << 63);
@@ -123,7 +92,7 @@ std::array<double, 2> colour_range(const fs::path& container, ColourBy by, doubl
 }  // namespace
 
 ExportSummary export_container(const fs::path& container, const fs::path& output, const OutputOptions& out,
-                               const ContainerExport& options, const fs::path& input) {
+                               const tiles::StreamExportOptions& options, const fs::path& input) {
   ExportSummary summary;
   {
     const auto f = tiles::h5::File::open(container, false);
@@ -157,14 +126,14 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
   std::array<double, 2> range{0.0, 0.0};
   if (colour) range = colour_range(container, out.colour_by, out.colour_clip);
 
-  tiles::ContainerChunkReader reader(container, {.original_order = options.original_order,
-                                                 .result_positions = !options.input_positions,
-                                                 .run_attributes = results});
   // The result columns, without colours: those are added here with the global range.
   OutputOptions columns = out;
   columns.colour_by = ColourBy::None;
   columns.attribute_prefix = attribute_prefix_for(output);
-  const auto add_columns = [&](io::PointTable& table, const PointAttributes& a) {
+  tiles::StreamExportOptions stream = options;
+  stream.run_attributes = results;
+  stream.write = write_options(out, input);
+  stream.columns = [&](io::PointTable& table, const PointAttributes& a) {
     if (!results) return;
     add_result_columns(table, a, columns, out.attributes, curvatures);
     if (!colour) return;
@@ -181,89 +150,7 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
     table.set("green", io::ScalarType::UInt8, std::move(green));
     table.set("blue", io::ScalarType::UInt8, std::move(blue));
   };
-
-  io::PointTable schema = reader.schema();
-  add_columns(schema, PointAttributes{});
-  summary.points = *reader.count();
-  const std::size_t chunk_points = reader.chunk_points_for(options.memory_budget);
-  if (needs_las_bounds(output, schema, out, summary.points)) {
-    // A first pass (in row order) over the container.
-    tiles::ContainerChunkReader first(container, {.original_order = false,
-                                                  .result_positions = !options.input_positions});
-    schema.quantization = las_grid_of([&](const ChunkVisitor& visit) {
-      io::PointTable chunk;
-      while (first.read(chunk, chunk_points) > 0) visit(chunk);
-    });
-  }
-  io::WriteOptions write;
-  write.input = input;
-  write.ply_encoding = ply_encoding(out.encoding);
-  write.las = out.las;
-  const auto writer = io::open_point_writer(output, schema, summary.points, write);
-  io::PointTable chunk;
-  while (reader.read(chunk, chunk_points) > 0) {
-    add_columns(chunk, reader.run_attributes());
-    writer->write(chunk);
-  }
-  writer->finish();
-  return summary;
-}
-
-SelectedExportSummary export_selected(const fs::path& container, const fs::path& source,
-                                      const io::PointSelection& selection, const fs::path& output,
-                                      const OutputOptions& out, std::uint64_t memory_budget) {
-  SelectedExportSummary summary;
-  // The source's whole schema: a LAS file's EVLRs follow its points, and its writer takes them
-  // when it opens (skipping to the end seeks over the records).
-  io::PointTable schema;
-  {
-    const auto probe = io::open_point_reader(source);
-    if (const auto count = probe->count()) probe->skip(*count);
-    schema = probe->schema();
-  }
-  summary.points = count_points(source);
-  const bool normals = !container.empty() && !io::normal_columns(schema).empty();
-  const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
-  const auto chunk_points =
-      static_cast<std::size_t>(std::clamp<std::uint64_t>(memory_budget / 4 / point_bytes, 1024, kBlockRows));
-  const auto changed = [&] {
-    return io::IoError(source.string() + ": changed during the run (its selected points no longer match " +
-                       container.string() + ")");
-  };
-  OutputOptions columns = out;
-  columns.colour_by = ColourBy::None;
-  // Calls `f` with every chunk of the output, in the source's order.
-  const auto for_each_chunk = [&](const std::function<void(const io::PointTable&)>& f) {
-    const auto reader = io::open_point_reader(source);
-    std::unique_ptr<tiles::ContainerChunkReader> run;
-    if (!container.empty())
-      run = std::make_unique<tiles::ContainerChunkReader>(
-          container, tiles::ContainerReaderOptions{.original_order = true, .result_positions = true,
-                                                   .run_attributes = normals});
-    summary.selected = summary.moved = 0;
-    io::PointTable chunk, part;
-    while (reader->read(chunk, chunk_points) > 0) {
-      const std::vector<std::size_t> rows = io::selected_rows(chunk, selection, source);
-      if (!rows.empty()) {
-        if (!run || run->read(part, rows.size()) != rows.size()) throw changed();
-        if (normals) add_result_columns(part, run->run_attributes(), columns, false);
-        for (std::size_t j = 0; j < rows.size(); ++j)
-          summary.moved += part.positions[j] != chunk.positions[rows[j]] ? 1 : 0;
-        io::splice_rows(chunk, rows, part);
-        summary.selected += rows.size();
-      }
-      f(chunk);
-    }
-    if (run && run->read(part, 1) != 0) throw changed();
-  };
-  if (needs_las_bounds(output, schema, out, summary.points)) schema.quantization = las_grid_of(for_each_chunk);
-  io::WriteOptions write;
-  write.input = source;
-  write.ply_encoding = ply_encoding(out.encoding);
-  write.las = out.las;
-  const auto writer = io::open_point_writer(output, schema, summary.points, write);
-  for_each_chunk([&](const io::PointTable& chunk) { writer->write(chunk); });
-  writer->finish();
+  summary.points = tiles::export_points(container, output, stream);
   return summary;
 }
 

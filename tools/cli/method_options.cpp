@@ -4,18 +4,19 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace pointfair::cli {
 namespace {
 
+// The choice `text` of --`option`, by the names of its enum's table (smooth_names.hpp).
 template <class Enum>
-Enum parse_choice(std::string_view text, std::string_view option,
-                  std::initializer_list<std::pair<std::string_view, Enum>> choices) {
+Enum parse_choice(std::string_view text, std::string_view option) {
+  if (const std::optional<Enum> value = enum_from_name<Enum>(text)) return *value;
   std::string names;
-  for (const auto& [name, value] : choices) {
-    if (text == name) return value;
+  for (const EnumName<Enum>& e : enum_names(Enum{})) {
     names += names.empty() ? "" : ", ";
-    names += name;
+    names += e.name;
   }
   throw UsageError("--" + std::string(option) + " must be one of " + names + ", got '" +
                    std::string(text) + "'");
@@ -23,32 +24,13 @@ Enum parse_choice(std::string_view text, std::string_view option,
 
 }  // namespace
 
-std::string to_string(Flow flow) { return flow == Flow::Isotropic ? "iso" : "aniso"; }
-std::string to_string(Cutoff cutoff) { return cutoff == Cutoff::Sharp ? "sharp" : "continuous"; }
-std::string to_string(NormalEstimator normal) { return normal == NormalEstimator::Robust ? "robust" : "pca"; }
-std::string to_string(FeatureMode mode) {
-  switch (mode) {
-    case FeatureMode::None: return "none";
-    case FeatureMode::EdgeQuotient: return "quotient";
-    case FeatureMode::MaxCurvature: return "maxcurv";
-  }
-  return "?";
-}
-std::string to_string(AngularWeights weights) {
-  return weights == AngularWeights::Paper ? "paper" : "uniform";
-}
-std::string to_string(ColourBy colour) {
-  switch (colour) {
-    case ColourBy::MaxCurvature: return "kmax";
-    case ColourBy::Laplacian: return "laplacian";
-    case ColourBy::None: return "none";
-  }
-  return "?";
-}
-
-std::string to_string(Placement placement) {
-  return placement == Placement::AlongNormal ? "normal" : "free";
-}
+std::string to_string(Flow flow) { return std::string(name_of(flow)); }
+std::string to_string(Cutoff cutoff) { return std::string(name_of(cutoff)); }
+std::string to_string(NormalEstimator normal) { return std::string(name_of(normal)); }
+std::string to_string(FeatureMode mode) { return std::string(name_of(mode)); }
+std::string to_string(AngularWeights weights) { return std::string(name_of(weights)); }
+std::string to_string(ColourBy colour) { return std::string(name_of(colour)); }
+std::string to_string(Placement placement) { return std::string(name_of(placement)); }
 
 void add_method_options(ArgumentParser& p, SmoothParams& s) {
   const OptionGroup before = p.current_group();
@@ -66,8 +48,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "surface). 'normal' needs the finish: with --no-quadric-finish the flow's positions "
           "are written. Default normal (--paper: free).",
           [&s](std::string_view v) {
-            s.placement = parse_choice<Placement>(v, "move", {{"normal", Placement::AlongNormal},
-                                                              {"free", Placement::Free}});
+            s.placement = parse_choice<Placement>(v, "move");
           });
   p.value("k", "N|auto",
           "Neighbours per point, the point itself not counted (1..1024). 'auto': chosen from the "
@@ -103,13 +84,13 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           [&s](std::string_view v) { s.flow.tau = parse_double(v, "--tau"); });
   p.value("flow", "iso|aniso", "Isotropic (umbrella) or anisotropic Laplacian. Default aniso.",
           [&s](std::string_view v) {
-            s.flow.flow = parse_choice<Flow>(v, "flow", {{"iso", Flow::Isotropic}, {"aniso", Flow::Anisotropic}});
+            s.flow.flow = parse_choice<Flow>(v, "flow");
           });
   p.value("cutoff", "sharp|continuous",
           "Cut-off on |kappa_ij|: drop neighbours at or above lambda, or shade them out with "
           "lambda^2 / (lambda^2 + 10 (|kappa| - lambda)^2). Default sharp.",
           [&s](std::string_view v) {
-            s.flow.cutoff = parse_choice<Cutoff>(v, "cutoff", {{"sharp", Cutoff::Sharp}, {"continuous", Cutoff::Continuous}});
+            s.flow.cutoff = parse_choice<Cutoff>(v, "cutoff");
           });
   p.group(OptionGroup::Advanced);
   p.value("cutoff-origin", "point|plane",
@@ -117,8 +98,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "itself (the paper) or its foot on the PCA plane of its neighbourhood, so that a point's "
           "own noise does not decide which neighbours are kept. Default plane.",
           [&s](std::string_view v) {
-            s.flow.cutoff_origin = parse_choice<CutoffOrigin>(
-                v, "cutoff-origin", {{"point", CutoffOrigin::Point}, {"plane", CutoffOrigin::Plane}});
+            s.flow.cutoff_origin = parse_choice<CutoffOrigin>(v, "cutoff-origin");
           });
   p.group(OptionGroup::Method);
   p.value("lambda", "CURVATURE|auto",
@@ -168,8 +148,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "robust plane refitted from the nearest neighbours with Tukey weights, which does not "
           "straddle sharp edges. Default robust.",
           [&s](std::string_view v) {
-            s.flow.normal_estimator = parse_choice<NormalEstimator>(
-                v, "normal", {{"pca", NormalEstimator::Pca}, {"robust", NormalEstimator::Robust}});
+            s.flow.normal_estimator = parse_choice<NormalEstimator>(v, "normal");
           });
   const RobustFrameParams robust = SmoothParams{}.flow.robust;
   p.value("robust-seed", "N",
@@ -191,9 +170,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Feature detection: edge quotient |k_min|/|k_max| < Q with |k_max| >= threshold, or "
           "|k_max| >= threshold; both principal curvatures above it make a corner. Default quotient.",
           [&s](std::string_view v) {
-            s.flow.features.mode = parse_choice<FeatureMode>(
-                v, "features", {{"none", FeatureMode::None}, {"quotient", FeatureMode::EdgeQuotient},
-                                {"maxcurv", FeatureMode::MaxCurvature}});
+            s.flow.features.mode = parse_choice<FeatureMode>(v, "features");
           });
   p.group(OptionGroup::Advanced);
   p.value("edge-quotient", "Q", "Edge quotient threshold Q in [0, 1] (dimensionless). Default 0.5.",
@@ -230,8 +207,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Angular weights of the Weingarten map: the paper's |e|/delta density weights or "
           "uniform. Default paper.",
           [&s](std::string_view v) {
-            s.flow.weingarten.weights = parse_choice<AngularWeights>(
-                v, "weights", {{"paper", AngularWeights::Paper}, {"uniform", AngularWeights::Uniform}});
+            s.flow.weingarten.weights = parse_choice<AngularWeights>(v, "weights");
           });
   p.value("density-floor", "F",
           "Lower clamp of the directional density delta_ij, as a fraction of c1 + c2, in (0, 1]. "
@@ -328,9 +304,7 @@ void add_output_options(ArgumentParser& p, OutputOptions& o, bool with_attribute
           "its own; demo: kmax).",
           [&o](std::string_view v) {
             o.colour_by_given = true;
-            o.colour_by = parse_choice<ColourBy>(
-                v, "colour-by", {{"kmax", ColourBy::MaxCurvature}, {"laplacian", ColourBy::Laplacian},
-                                 {"none", ColourBy::None}});
+            o.colour_by = parse_choice<ColourBy>(v, "colour-by");
           });
   p.value("colour-clip", "F",
           "Fraction of points clipped at each end of the colour range, in [0, 0.5): 0 maps the "

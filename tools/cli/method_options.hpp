@@ -1,16 +1,24 @@
 #pragma once
 // The method's options, shared by the commands that run it (smooth, curvature, demo).
+#include <array>
+#include <span>
 #include <string>
 
 #include "arguments.hpp"
 #include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/io/las.hpp"
 #include "pointfair/smooth.hpp"
+#include "pointfair/smooth_names.hpp"
 
 namespace pointfair::cli {
 
 /// What to colour the output by (Section 5 of the paper).
 enum class ColourBy { MaxCurvature, Laplacian, None };
+
+/// --colour-by's names, in the order its messages name them (smooth_names.hpp).
+inline constexpr std::array<EnumName<ColourBy>, 3> kColourByNames{
+    {{ColourBy::MaxCurvature, "kmax"}, {ColourBy::Laplacian, "laplacian"}, {ColourBy::None, "none"}}};
+constexpr std::span<const EnumName<ColourBy>> enum_names(ColourBy) { return kColourByNames; }
 
 struct OutputOptions {
   /// None: the input's own colours, if any, are kept. curvature and demo colour by kmax.

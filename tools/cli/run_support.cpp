@@ -9,6 +9,8 @@
 #include <iostream>
 
 #include "pointfair/common/colour.hpp"
+#include "pointfair/finish/quadric_parameters.hpp"
+#include "pointfair/smooth_parameters.hpp"
 #include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/shapes/shapes.hpp"
@@ -34,13 +36,17 @@ std::optional<io::PlyEncoding> ply_encoding(const std::string& encoding) {
   return std::nullopt;
 }
 
-void write_output(const std::filesystem::path& path, const io::PointTable& table,
-                  const OutputOptions& output, const std::filesystem::path& input) {
+io::WriteOptions write_options(const OutputOptions& output, const std::filesystem::path& input) {
   io::WriteOptions options;
   options.input = input;
   options.ply_encoding = ply_encoding(output.encoding);
   options.las = output.las;
-  io::write_points(path, table, options);
+  return options;
+}
+
+void write_output(const std::filesystem::path& path, const io::PointTable& table,
+                  const OutputOptions& output, const std::filesystem::path& input) {
+  io::write_points(path, table, write_options(output, input));
 }
 
 bool fits_float(double value) {
@@ -139,36 +145,52 @@ JsonObject to_json(const DisplacementStats& s) {
   return j;
 }
 
+JsonObject& add_parameter(JsonObject& j, std::string_view name, const ParameterValue& v) {
+  switch (v.kind) {
+    case ParameterValue::Kind::Integer: return j.add(name, static_cast<long long>(v.integer));
+    case ParameterValue::Kind::Real: return j.add(name, v.real);
+    case ParameterValue::Kind::Flag: return j.add(name, v.integer != 0);
+    case ParameterValue::Kind::Choice: return j.add(name, v.name);
+  }
+  return j;
+}
+
 JsonObject parameters_json(const SmoothParams& p, int k, double eps, double lambda) {
+  const bool fixed_threshold = p.flow.features.threshold > 0;
+  const bool lambda_threshold = !fixed_threshold && p.flow.features.scale == FeatureScale::Lambda;
   JsonObject j;
-  j.add("k", k).add("k_auto", p.neighbors.k == 0).add("eps", eps).add("steps", p.steps).add("tau", p.flow.tau);
-  j.add("flow", to_string(p.flow.flow)).add("cutoff", to_string(p.flow.cutoff));
-  j.add("lambda", lambda).add("lambda_auto", p.flow.lambda == 0.0);
-  j.add("lambda_factor", p.flow.lambda_auto_factor).add("lambda_every_step", p.lambda_every_step);
-  j.add("constrain_normal", p.flow.constrain_normal).add("rebuild_every", p.rebuild_interval);
-  j.add("features", to_string(p.flow.features.mode)).add("edge_quotient", p.flow.features.quotient);
-  if (p.flow.features.threshold > 0) j.add("feature_threshold", p.flow.features.threshold);
-  else if (p.flow.features.scale == FeatureScale::Lambda) j.add("feature_threshold", lambda);
-  else j.add("feature_threshold", "auto").add("feature_turn", p.flow.features.turn);
-  j.add("feature_gated", p.flow.feature_gated);
-  j.add("weights", to_string(p.flow.weingarten.weights)).add("density_floor", p.flow.weingarten.density_floor);
-  j.add("cutoff_origin", p.flow.cutoff_origin == CutoffOrigin::Plane ? "plane" : "point");
-  j.add("stop_lambda_ratio", p.stop_lambda_ratio).add("stop_plateau", p.stop_plateau);
-  j.add("shrink_compensation", p.shrink_compensation);
-  j.add("normal", to_string(p.flow.normal_estimator));
-  if (p.flow.normal_estimator == NormalEstimator::Robust)
-    j.add("robust_seed", p.flow.robust.seed_neighbors)
-        .add("robust_iterations", p.flow.robust.iterations)
-        .add("robust_bound", p.flow.robust.inlier_bound);
+  for (const std::string_view name : kSmoothJsonOrder) {
+    // What the run used rather than what was asked for, and the feature threshold's rule.
+    if (name == "k") j.add(name, k);
+    else if (name == "k_auto") j.add(name, p.neighbors.k == 0);
+    else if (name == "eps") j.add(name, eps);
+    else if (name == "lambda") j.add(name, lambda);
+    else if (name == "lambda_auto") j.add(name, p.flow.lambda == 0.0);
+    else if (name == "feature_threshold") {
+      if (fixed_threshold) j.add(name, p.flow.features.threshold);
+      else if (lambda_threshold) j.add(name, lambda);
+      else j.add(name, "auto");
+    } else if (name == "feature_turn") {
+      if (!fixed_threshold && !lambda_threshold) j.add(name, p.flow.features.turn);
+    } else if (name.starts_with("robust_") && p.flow.normal_estimator != NormalEstimator::Robust) {
+      // The robust frame's parameters only with it.
+    } else {
+      const SmoothParameter* parameter = find_parameter<SmoothParams>(kSmoothParameters, &SmoothParameter::json, name);
+      add_parameter(j, name, parameter->value(p));
+    }
+  }
   return j;
 }
 
 JsonObject finish_json(const SmoothParams& p) {
   const QuadricProjectionParams q = p.finish.value_or(QuadricProjectionParams{});
   JsonObject j;
-  j.add("enabled", p.finish.has_value()).add("k", q.k).add("angle_degrees", q.normal_angle)
-      .add("degree", q.degree).add("passes", q.passes).add("iterations", q.iterations)
-      .add("curvature_reach", q.curvature_reach).add("min_k", q.min_k);
+  j.add("enabled", p.finish.has_value());
+  for (const std::string_view name : kQuadricJsonOrder) {
+    const QuadricParameter* parameter = find_parameter<QuadricProjectionParams>(kQuadricParameters,
+                                                                                &QuadricParameter::json, name);
+    add_parameter(j, name, parameter->value(q));
+  }
   return j;
 }
 

@@ -10,7 +10,9 @@
 
 #include "json_writer.hpp"
 #include "method_options.hpp"
+#include "pointfair/common/parameter.hpp"
 #include "pointfair/io/ply.hpp"
+#include "pointfair/io/point_file.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/smooth.hpp"
 
@@ -24,6 +26,10 @@ io::PointTable read_input(const std::filesystem::path& path, bool quiet);
 
 /// The PLY encoding of --encoding ("binary", "binary-be", "ascii"); empty keeps the source's.
 std::optional<io::PlyEncoding> ply_encoding(const std::string& encoding);
+
+/// The writer's options of `output` (--encoding, the LAS options), refusing to overwrite
+/// `input` when given.
+io::WriteOptions write_options(const OutputOptions& output, const std::filesystem::path& input = {});
 
 /// Writes `table` atomically with the chosen encoding, refusing to overwrite `input`.
 void write_output(const std::filesystem::path& path, const io::PointTable& table,
@@ -57,11 +63,16 @@ struct DisplacementStats {
 DisplacementStats displacement_stats(std::span<const Vec3> before, std::span<const Vec3> after);
 JsonObject to_json(const DisplacementStats& stats);
 
-/// The method's parameters as a JSON object (with resolved eps and lambda).
+/// The method's parameters as a JSON object (with resolved eps and lambda), by their table
+/// (smooth_parameters.hpp) in kSmoothJsonOrder.
 /// `k`: the neighbourhood size used (SmoothReport::k); "k_auto" says whether it was chosen.
 JsonObject parameters_json(const SmoothParams& params, int k, double eps, double lambda);
 
-/// The finish's parameters (SmoothParams::finish) as a JSON object; "enabled" says whether it runs.
+/// Adds `value` to `j` under `name`: a number, true or false, or a choice's command-line name.
+JsonObject& add_parameter(JsonObject& j, std::string_view name, const ParameterValue& value);
+
+/// The finish's parameters (SmoothParams::finish) as a JSON object; "enabled" says whether it
+/// runs; the others follow its table (finish/quadric_parameters.hpp) in kQuadricJsonOrder.
 JsonObject finish_json(const SmoothParams& params);
 
 /// The coarse level's parameters (SmoothParams::coarse) and the levels that ran.

@@ -14,7 +14,6 @@
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/file_lock.hpp"
-#include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
@@ -70,7 +69,7 @@ void import_input(const OutOfCoreFileSmooth& run, const fs::path& folder, const 
   import.container.tiling.max_tile_points = tile_points;
   import.container.source_name = fs::path(run.input).filename().string();
   import.container.source_size = input_file_size(run.input);
-  if (is_container_path(run.input)) {
+  if (tiles::is_container_path(run.input)) {
     // The container's own source, which an export names.
     const auto f = tiles::h5::File::open(run.input, false);
     import.container.source_name = f.string_attribute("/", "source_name");
@@ -79,7 +78,7 @@ void import_input(const OutOfCoreFileSmooth& run, const fs::path& folder, const 
   import.container.source_digest = digest;
   import.select = run.select.selection;
   // The import streams the file within the budget (at least its minimum of 16 MiB).
-  import.memory_budget = std::max(ooc.memory_budget, kMinImportBudget);
+  import.memory_budget = std::max(ooc.memory_budget, tiles::kMinImportBudget);
   import.read.on_warning = [quiet = run.output_options.quiet](const std::string& message) {
     if (!quiet) std::fprintf(stderr, "warning: %s\n", message.c_str());
   };
@@ -90,7 +89,7 @@ void import_input(const OutOfCoreFileSmooth& run, const fs::path& folder, const 
 }
 
 JsonObject summary_json(const OutOfCoreFileSmooth& run, const tiles::OutOfCoreReport& report,
-                        const SelectedExportSummary& selected, double seconds_write, double seconds_total,
+                        const tiles::SelectedExportReport& selected, double seconds_write, double seconds_total,
                         double rate) {
   const SmoothParams& params = run.params;
   const bool selecting = !run.select.selection.all();
@@ -112,7 +111,7 @@ JsonObject summary_json(const OutOfCoreFileSmooth& run, const tiles::OutOfCoreRe
                                           : std::string("unknown (the steps ended before this resume)"));
   j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
   j.add("quadric_finish", finish_json(params));
-  j.add("placement", params.finish && params.placement == Placement::AlongNormal ? "normal" : "free");
+  j.add("placement", name_of(params.finish ? params.placement : Placement::Free));
   j.add("memory_budget_bytes", static_cast<std::size_t>(run.options.memory_budget));
   j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));
   j.add("largest_tile_with_halo", static_cast<std::size_t>(report.largest_tile_with_halo));
@@ -134,17 +133,6 @@ JsonObject summary_json(const OutOfCoreFileSmooth& run, const tiles::OutOfCoreRe
 
 }  // namespace
 
-bool runs_out_of_core(const fs::path& input, const fs::path& output, const SmoothParams& params,
-                      std::optional<std::uint64_t> memory_budget, bool resume) {
-  if (is_container_path(input)) return true;
-  const bool forced = is_container_path(output) || resume;
-  if (!memory_budget && !forced) return false;
-  // The PLY header's count, or a counting pass over a text file: the cloud is not loaded (and
-  // an input that cannot be read is refused before any work).
-  const std::uint64_t points = count_points(input);
-  return forced || !fits_in_core(points, params, *memory_budget);
-}
-
 OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run) {
   const auto t_start = run.started.value_or(Clock::now());
   const SmoothParams& params = run.params;
@@ -152,7 +140,7 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
   const std::string& output_path = run.output;
   const OutputOptions& output = run.output_options;
   tiles::OutOfCoreOptions ooc = run.options;
-  const bool container_in = is_container_path(input), container_out = is_container_path(output_path);
+  const bool container_in = tiles::is_container_path(input), container_out = tiles::is_container_path(output_path);
   // The run's container holds the selected points only; the export walks the point file
   // and puts them back among the others.
   const bool selecting = !run.select.selection.all();
@@ -161,9 +149,7 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
   // under a larger one) is imported again with the budget's tiles, into the run's folder, as
   // a point file is (a container output then holds those tiles). A resumed run takes the
   // input its folder holds.
-  const int flow_k = params.neighbors.k == 0 ? kAutoKMax : params.neighbors.k;
-  const int k_bound = params.finish ? std::max(flow_k, params.finish->k) : flow_k;
-  const std::uint64_t tile_points = tiles::tile_points_for_budget(ooc.memory_budget, k_bound);
+  const std::uint64_t tile_points = tiles::run_tile_points(ooc.memory_budget, params);
   bool retile = false;
   if (container_in) {
     const auto f = tiles::h5::File::open(input, false);
@@ -242,16 +228,16 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
   if (container_out) guard.done = true;  // a container imported again: its folder goes
 
   double seconds_write = 0.0;
-  SelectedExportSummary selected;
+  tiles::SelectedExportReport selected;
   if (selecting) {
     const auto t0 = Clock::now();
-    selected = export_selected(result.nothing_selected ? fs::path() : run_output, input, run.select.selection,
-                               output_path, output, ooc.memory_budget);
+    selected = tiles::export_selected(result.nothing_selected ? fs::path() : run_output, input, run.select.selection,
+                                      output_path, write_options(output, input), ooc.memory_budget);
     guard.done = true;
     seconds_write = seconds_since(t0);
   } else if (!container_out) {
     const auto t0 = Clock::now();
-    ContainerExport exported;
+    tiles::StreamExportOptions exported;
     exported.memory_budget = ooc.memory_budget;
     export_container(run_output, output_path, output, exported, input);
     guard.done = true;

@@ -22,14 +22,6 @@
 
 namespace pointfair::cli {
 
-/// Whether `pointfair smooth input output` runs out of core: a container (.h5) input or
-/// output, a resume, or a point file whose in-core run does not fit `memory_budget`
-/// (fits_in_core); without a budget, only containers and a resume. A point-file input is
-/// counted (the PLY header's count or a counting pass over a text file) whenever a budget, a
-/// container output or a resume is given: throws IoError as its reader.
-bool runs_out_of_core(const std::filesystem::path& input, const std::filesystem::path& output,
-                      const SmoothParams& params, std::optional<std::uint64_t> memory_budget, bool resume = false);
-
 /// One progress call of the out-of-core run.
 struct OutOfCoreProgress {
   /// The import of the input into the run's folder (true), or the run.

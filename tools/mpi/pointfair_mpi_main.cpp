@@ -36,9 +36,8 @@
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_table.hpp"
-#include "pointfair/neighbors/neighborhood_size.hpp"
-#include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/tiles/budget.hpp"
+#include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/import.hpp"
 #include "pointfair/tiles/mpi_ranks.hpp"
@@ -145,7 +144,7 @@ int run(const std::vector<std::string>& args, tiles::Ranks& ranks) {
 
 int run_import(const std::vector<std::string>& args, tiles::Ranks& ranks) {
   std::string input, output;
-  std::uint64_t budget = std::uint64_t{256} << 20, tile_points = 0;
+  std::uint64_t budget = tiles::kDefaultMemoryBudget, tile_points = 0;
   tiles::StreamImportOptions stream;
   bool quiet = false;
   cli::ArgumentParser parser(
@@ -180,14 +179,11 @@ int run_import(const std::vector<std::string>& args, tiles::Ranks& ranks) {
   parser.flag("quiet", "No summary on stderr.", [&] { quiet = true; });
   refuse_selection(parser, "pointfair_mpi import");
   if (!parser.parse(args)) return 0;
-  if (!cli::is_container_path(output))
+  if (!tiles::is_container_path(output))
     throw cli::UsageError("pointfair_mpi import: OUT must be a .h5 file, got '" + output + "'");
   io::require_distinct(input, output);
   const auto t0 = std::chrono::steady_clock::now();
-  // Sized as smooth sizes its tiles under the same budget (the largest automatic k and the
-  // default finish's k), so that a run under this budget takes the container as it is.
-  const int k_bound = std::max(kAutoKMax, QuadricProjectionParams{}.k);
-  stream.container.tiling.max_tile_points = tile_points > 0 ? tile_points : tiles::tile_points_for_budget(budget, k_bound);
+  stream.container.tiling.max_tile_points = tile_points > 0 ? tile_points : tiles::import_tile_points(budget);
   stream.container.source_name = std::filesystem::path(input).filename().string();
   std::error_code ec;
   stream.container.source_size = std::filesystem::file_size(input, ec);

@@ -78,6 +78,9 @@ struct TileTable {
 /// a pointfair container or whose tile table is inconsistent.
 TileTable read_tile_table(const h5::File& file);
 
+/// True for a container's file name: .h5 or .hdf5 (case-insensitive).
+bool is_container_path(const std::filesystem::path& path);
+
 /// Number of points of a container.
 std::uint64_t point_count(const h5::File& file);
 

@@ -10,6 +10,7 @@
 
 #include "pointfair/io/point_selection.hpp"
 #include "pointfair/io/point_table.hpp"
+#include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/ranks.hpp"
 
@@ -20,7 +21,7 @@ struct StreamImportOptions {
   ImportOptions container;
   /// Bytes the import may hold (the histogram, the scatter buffer, the reader's chunk and
   /// tables). HDF5's own chunk caches (1 MiB per dataset) and the program come on top.
-  std::uint64_t memory_budget = std::uint64_t{256} << 20;
+  std::uint64_t memory_budget = kDefaultMemoryBudget;
   /// Most points per chunk read from the input (fewer when a chunk would take more than an
   /// eighth of the budget).
   std::size_t read_chunk_points = 1u << 16;

@@ -39,6 +39,7 @@
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/smooth.hpp"
+#include "pointfair/tiles/budget.hpp"
 
 namespace pointfair::tiles {
 
@@ -61,7 +62,7 @@ std::string size_text(std::uint64_t bytes, bool up = false);
 struct OutOfCoreOptions {
   /// Bytes of working memory the run may use for its buffers (tile, halo, neighbour lists,
   /// caches). libhdf5's chunk caches and the program itself come on top (a few tens of MiB).
-  std::uint64_t memory_budget = std::uint64_t{256} << 20;
+  std::uint64_t memory_budget = kDefaultMemoryBudget;
   /// Continue the interrupted run in "<output>.partial" instead of refusing to start.
   bool resume = false;
   /// Compute the per-point attributes (normals, curvatures, feature classes) at the end.

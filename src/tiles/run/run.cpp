@@ -3,46 +3,37 @@
 
 #include <cstdio>
 
+#include "parameter_forms.hpp"
+#include "pointfair/finish/quadric_parameters.hpp"
+#include "pointfair/smooth_parameters.hpp"
+
 namespace pointfair::tiles::detail {
 
 // Every parameter that changes the result, as one line: stored in the run and compared on
-// --resume.
+// --resume. The table of smooth_parameters.hpp in its order; some entries only when they hold.
 std::string parameters_key(const SmoothParams& p) {
   std::ostringstream s;
   s.precision(17);
-  s << "k=" << p.neighbors.k << " eps=" << p.neighbors.eps << " eps_factor=" << p.neighbors.eps_auto_factor
-    << " steps=" << p.steps << " rebuild=" << p.rebuild_interval << " lambda_every_step=" << p.lambda_every_step
-    << " flow=" << static_cast<int>(p.flow.flow) << " cutoff=" << static_cast<int>(p.flow.cutoff)
-    << " lambda=" << p.flow.lambda << " lambda_factor=" << p.flow.lambda_auto_factor << " tau=" << p.flow.tau
-    << " constrain_normal=" << p.flow.constrain_normal << " feature_gated=" << p.flow.feature_gated
-    << " features=" << static_cast<int>(p.flow.features.mode) << " quotient=" << p.flow.features.quotient
-    << " feature_threshold=" << p.flow.features.threshold
-    << " weights=" << static_cast<int>(p.flow.weingarten.weights)
-    << " density_floor=" << p.flow.weingarten.density_floor
-    << " cutoff_origin=" << static_cast<int>(p.flow.cutoff_origin)
-    << " stop_lambda_ratio=" << p.stop_lambda_ratio
-    << " normal=" << static_cast<int>(p.flow.normal_estimator) << " robust_seed=" << p.flow.robust.seed_neighbors
-    << " robust_iterations=" << p.flow.robust.iterations << " robust_bound=" << p.flow.robust.inlier_bound;
-  // Named only when on, so that runs started before these options existed still resume.
-  if (p.stop_plateau != 0.0) s << " stop_plateau=" << p.stop_plateau;
-  if (p.shrink_compensation != 0.0) s << " shrink_compensation=" << p.shrink_compensation;
-  // Runs from before the spacing rule classified by lambda: they resume with
-  // --feature-threshold lambda (no name), not with the rule that would change their classes.
-  if (p.flow.features.threshold == 0.0 && p.flow.features.scale == FeatureScale::Spacing)
-    s << " feature_scale=spacing feature_turn=" << p.flow.features.turn;
+  const char* separator = "";
+  for (const SmoothParameter& parameter : kSmoothParameters) {
+    if (parameter.key_when != nullptr && !parameter.key_when(p)) continue;
+    s << separator;
+    separator = " ";
+    write_key(s, parameter.key, parameter.value(p), parameter.key_by_name);
+  }
   return s.str();
 }
 
-// Every parameter of the quadric finish, for the same line.
+// Every parameter of the quadric finish (its table, in the table's order), for the same line.
 std::string finish_key(const QuadricProjectionParams& q) {
   std::ostringstream s;
   s.precision(17);
-  s << "quadric_k=" << q.k << " quadric_normal_neighbors=" << q.normal_neighbors
-    << " quadric_angle=" << q.normal_angle << " quadric_iterations=" << q.iterations
-    << " quadric_bound=" << q.inlier_bound << " quadric_degree=" << q.degree << " quadric_passes=" << q.passes
-    << " quadric_curvature_reach=" << q.curvature_reach << " quadric_min_k=" << q.min_k
-    << " quadric_frame_seed=" << q.frame.seed_neighbors << " quadric_frame_iterations=" << q.frame.iterations
-    << " quadric_frame_bound=" << q.frame.inlier_bound << " quadric_placement_turn=" << q.placement_turn;
+  const char* separator = "";
+  for (const QuadricParameter& parameter : kQuadricParameters) {
+    s << separator;
+    separator = " ";
+    write_key(s, parameter.key, parameter.value(q));
+  }
   return s.str();
 }
 
@@ -53,7 +44,10 @@ std::string Run::key() const {
     k += ' ';
     k += finish_key(*params_.finish);
     // The input points placed along the normals in the last pass (SmoothParams::placement).
-    if (params_.placement == Placement::AlongNormal) k += " placement=along_normal";
+    if (params_.placement == Placement::AlongNormal) {
+      k += " placement=";
+      k += stored_name_of(Placement::AlongNormal);
+    }
   }
   if (!options_.neighbor_reference.empty()) {
     std::error_code ec;
@@ -165,32 +159,9 @@ void Run::create(const fs::path& partial, const std::string& digest) {
   f.set_attribute(layout::run, "input_name", input_path_.filename().string());
   f.set_attribute(layout::run, "input_size_bytes", static_cast<std::int64_t>(fs::file_size(input_path_)));
   f.set_attribute(layout::run, "tool_version", version());
-  f.set_attribute(layout::run, "k", static_cast<std::int64_t>(params_.neighbors.k));
-  f.set_attribute(layout::run, "eps_requested", params_.neighbors.eps);
-  f.set_attribute(layout::run, "eps_factor", params_.neighbors.eps_auto_factor);
-  f.set_attribute(layout::run, "steps", static_cast<std::int64_t>(params_.steps));
-  f.set_attribute(layout::run, "tau", params_.flow.tau);
-  f.set_attribute(layout::run, "flow", params_.flow.flow == Flow::Isotropic ? "iso" : "aniso");
-  f.set_attribute(layout::run, "cutoff", params_.flow.cutoff == Cutoff::Sharp ? "sharp" : "continuous");
-  f.set_attribute(layout::run, "lambda_requested", params_.flow.lambda);
-  f.set_attribute(layout::run, "lambda_factor", params_.flow.lambda_auto_factor);
-  f.set_attribute(layout::run, "lambda_every_step", static_cast<std::int64_t>(params_.lambda_every_step));
-  f.set_attribute(layout::run, "constrain_normal", static_cast<std::int64_t>(params_.flow.constrain_normal));
-  f.set_attribute(layout::run, "feature_gated", static_cast<std::int64_t>(params_.flow.feature_gated));
-  f.set_attribute(layout::run, "features",
-                  params_.flow.features.mode == FeatureMode::None           ? "none"
-                  : params_.flow.features.mode == FeatureMode::EdgeQuotient ? "quotient"
-                                                                            : "maxcurv");
-  f.set_attribute(layout::run, "edge_quotient", params_.flow.features.quotient);
-  f.set_attribute(layout::run, "feature_threshold", params_.flow.features.threshold);
-  f.set_attribute(layout::run, "feature_scale",
-                  params_.flow.features.scale == FeatureScale::Spacing ? "spacing" : "lambda");
-  f.set_attribute(layout::run, "feature_turn", params_.flow.features.turn);
-  f.set_attribute(layout::run, "weights",
-                  params_.flow.weingarten.weights == AngularWeights::Paper ? "paper" : "uniform");
-  f.set_attribute(layout::run, "density_floor", params_.flow.weingarten.density_floor);
-  f.set_attribute(layout::run, "normal",
-                  params_.flow.normal_estimator == NormalEstimator::Robust ? "robust" : "pca");
+  for (const std::string_view name : kSmoothStoredOrder)
+    store_parameter(f, layout::run, name,
+                    find_parameter<SmoothParams>(kSmoothParameters, &SmoothParameter::stored, name)->value(params_));
 
   f.create_dataset(layout::run_eps, h5::Type::Float64, 1, 0, early);
   f.create_dataset(layout::run_step_log, h5::Type::Float64, static_cast<std::uint64_t>(std::max(1, params_.steps)),
@@ -220,13 +191,10 @@ void Run::create(const fs::path& partial, const std::string& digest) {
   }
   if (params_.finish) {
     f.create_dataset(kStopLambda, h5::Type::Float64, 1, 0, early);
-    const QuadricProjectionParams& q = *params_.finish;
-    f.set_attribute(layout::run, "quadric_k", static_cast<std::int64_t>(q.k));
-    f.set_attribute(layout::run, "quadric_angle", q.normal_angle);
-    f.set_attribute(layout::run, "quadric_degree", static_cast<std::int64_t>(q.degree));
-    f.set_attribute(layout::run, "quadric_passes", static_cast<std::int64_t>(q.passes));
-    f.set_attribute(layout::run, "placement",
-                    std::string(params_.placement == Placement::AlongNormal ? "along_normal" : "free"));
+    for (const QuadricParameter& parameter : kQuadricParameters)
+      if (!parameter.stored.empty())
+        store_parameter(f, layout::run, parameter.stored, parameter.value(*params_.finish));
+    f.set_attribute(layout::run, "placement", stored_name_of(params_.placement));
   }
   state_.assign(kStateSize, 0);
   state_[kSetupDone] = 1;
