@@ -120,6 +120,27 @@ std::array<double, 2> colour_range(const fs::path& container, ColourBy by, doubl
   return {value_of(prefix[0]), value_of(prefix[1])};
 }
 
+// The whole schema of `source`: a LAS file's EVLRs follow its points, and its writer takes them
+// when it opens (skipping to the end seeks over the records).
+io::PointTable source_schema(const fs::path& source) {
+  const auto probe = io::open_point_reader(source);
+  if (const auto count = probe->count()) probe->skip(*count);
+  return probe->schema();
+}
+
+// Writes the `points` points `for_each_chunk` calls its visitor with to `output` (format by
+// extension, atomically) with the schema and layout of `source`.
+void write_chunks(const fs::path& output, const io::PointTable& schema, std::uint64_t points, const fs::path& source,
+                  const OutputOptions& out, const std::function<void(const ChunkVisitor&)>& for_each_chunk) {
+  io::WriteOptions write;
+  write.input = source;
+  write.ply_encoding = ply_encoding(out.encoding);
+  write.las = out.las;
+  const auto writer = io::open_point_writer(output, schema, points, write);
+  for_each_chunk([&](const io::PointTable& chunk) { writer->write(chunk); });
+  writer->finish();
+}
+
 }  // namespace
 
 ExportSummary export_container(const fs::path& container, const fs::path& output, const OutputOptions& out,
@@ -213,14 +234,7 @@ SelectedExportSummary export_selected(const fs::path& container, const fs::path&
                                       const io::PointSelection& selection, const fs::path& output,
                                       const OutputOptions& out, std::uint64_t memory_budget) {
   SelectedExportSummary summary;
-  // The source's whole schema: a LAS file's EVLRs follow its points, and its writer takes them
-  // when it opens (skipping to the end seeks over the records).
-  io::PointTable schema;
-  {
-    const auto probe = io::open_point_reader(source);
-    if (const auto count = probe->count()) probe->skip(*count);
-    schema = probe->schema();
-  }
+  io::PointTable schema = source_schema(source);
   summary.points = count_points(source);
   const bool normals = !container.empty() && !io::normal_columns(schema).empty();
   const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
@@ -257,14 +271,41 @@ SelectedExportSummary export_selected(const fs::path& container, const fs::path&
     if (run && run->read(part, 1) != 0) throw changed();
   };
   if (needs_las_bounds(output, schema, out, summary.points)) schema.quantization = las_grid_of(for_each_chunk);
-  io::WriteOptions write;
-  write.input = source;
-  write.ply_encoding = ply_encoding(out.encoding);
-  write.las = out.las;
-  const auto writer = io::open_point_writer(output, schema, summary.points, write);
-  for_each_chunk([&](const io::PointTable& chunk) { writer->write(chunk); });
-  writer->finish();
+  write_chunks(output, schema, summary.points, source, out, for_each_chunk);
   return summary;
+}
+
+void export_folder(const fs::path& container, const std::vector<fs::path>& sources, const std::vector<fs::path>& outputs,
+                   const OutputOptions& out, std::uint64_t memory_budget) {
+  // One pass over the run's points in their original order: file after file, as imported.
+  tiles::ContainerChunkReader run(container, {.original_order = true, .result_positions = true, .run_attributes = true});
+  OutputOptions columns = out;
+  columns.colour_by = ColourBy::None;
+  for (std::size_t f = 0; f < sources.size(); ++f) {
+    const fs::path& source = sources[f];
+    const io::PointTable schema = source_schema(source);
+    const std::uint64_t points = count_points(source);
+    const bool normals = !io::normal_columns(schema).empty();
+    const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
+    const auto chunk_points =
+        static_cast<std::size_t>(std::clamp<std::uint64_t>(memory_budget / 4 / point_bytes, 1024, kBlockRows));
+    // One pass over the source (a LAS output has the source's own grid: no pass for bounds).
+    write_chunks(outputs[f], schema, points, source, out, [&](const ChunkVisitor& visit) {
+      const auto reader = io::open_point_reader(source);
+      io::PointTable chunk, part;
+      while (const std::size_t got = reader->read(chunk, chunk_points)) {
+        if (run.read(part, got) != got)
+          throw io::IoError(source.string() + ": changed during the run (it has more points than " +
+                            container.string() + " holds for it)");
+        chunk.positions.swap(part.positions);
+        if (normals) add_result_columns(chunk, run.run_attributes(), columns, false);
+        visit(chunk);
+      }
+    });
+  }
+  io::PointTable rest;
+  if (run.read(rest, 1) != 0)
+    throw io::IoError(container.string() + ": holds more points than the folder's files (a file changed during the run)");
 }
 
 }  // namespace pointfair::cli

@@ -4,6 +4,7 @@
 // cloud's size.
 #include <cstdint>
 #include <filesystem>
+#include <vector>
 
 #include "method_options.hpp"
 #include "pointfair/io/point_selection.hpp"
@@ -51,5 +52,16 @@ struct SelectedExportSummary {
 SelectedExportSummary export_selected(const std::filesystem::path& container, const std::filesystem::path& source,
                                       const io::PointSelection& selection, const std::filesystem::path& output,
                                       const OutputOptions& out, std::uint64_t memory_budget);
+
+/// Writes sources[i] to outputs[i] (format by extension, atomically), record by record, with
+/// the smoothed positions of the finished run in `container`, which was imported from the
+/// sources' points concatenated in this order (a folder run): the points of sources[0] take the
+/// container's first points (original order), and so on. Normals a source has are refreshed as
+/// export_container does; every other field is written as read, in the source's layout. Each
+/// output appears when complete. Memory stays within `memory_budget`. Throws IoError naming the
+/// file when the sources and the container disagree (a file changed during the run).
+void export_folder(const std::filesystem::path& container, const std::vector<std::filesystem::path>& sources,
+                   const std::vector<std::filesystem::path>& outputs, const OutputOptions& out,
+                   std::uint64_t memory_budget);
 
 }  // namespace pointfair::cli

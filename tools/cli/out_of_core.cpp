@@ -8,6 +8,7 @@
 #include "arguments.hpp"
 #include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/point_file.hpp"
+#include "pointfair/io/point_folder.hpp"
 #include "pointfair/neighbors/neighborhood_size.hpp"
 
 namespace pointfair::cli {
@@ -40,6 +41,11 @@ std::uint64_t parse_size(std::string_view text, std::string_view what) {
 }
 
 std::uint64_t input_file_size(const std::filesystem::path& file) {
+  if (std::filesystem::is_directory(file)) {
+    std::uint64_t total = 0;
+    for (const auto& f : io::point_files_in(file)) total += input_file_size(f);
+    return total;
+  }
   io::require_regular_input(file);
   std::error_code ec;
   const std::uint64_t size = std::filesystem::file_size(file, ec);
@@ -48,7 +54,8 @@ std::uint64_t input_file_size(const std::filesystem::path& file) {
 }
 
 std::uint64_t count_points(const std::filesystem::path& file) {
-  const auto reader = io::open_point_reader(file);
+  const auto reader = std::filesystem::is_directory(file) ? io::open_folder_reader(io::point_files_in(file))
+                                                         : io::open_point_reader(file);
   if (reader->count()) return *reader->count();
   io::PointTable chunk;
   while (reader->read(chunk, 1u << 16) > 0) {

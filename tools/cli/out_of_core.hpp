@@ -15,11 +15,13 @@ bool is_container_path(const std::filesystem::path& path);
 /// Parses a size in bytes: "1048576", "512K", "256M", "256MiB", "2G", "2GiB" (binary units).
 std::uint64_t parse_size(std::string_view text, std::string_view what);
 
-/// Size in bytes of the input file `file`. Throws IoError naming it when it is missing or not a
-/// regular file (a named pipe, a device: io::require_regular_input).
+/// Size in bytes of the input file `file` (of a folder: of its point files, io::point_files_in).
+/// Throws IoError naming it when it is missing or not a regular file (a named pipe, a device:
+/// io::require_regular_input).
 std::uint64_t input_file_size(const std::filesystem::path& file);
 
-/// Number of points of a point file: the PLY header's count, or a pass over a text file.
+/// Number of points of a point file (of a folder: of its point files together): the PLY
+/// header's count, or a pass over a text file.
 /// Throws IoError as the file's reader.
 std::uint64_t count_points(const std::filesystem::path& file);
 
