@@ -168,6 +168,22 @@ TEST_F(TilesFolder, ImportMakesOneContainerOfEveryFile) {
   EXPECT_NE(r.out.find("\"points\": 20000"), std::string::npos) << r.out;
 }
 
+TEST_F(TilesFolder, CurvatureOfAFolderIsTheMergedClouds) {
+  write_tiles(3000);
+  ASSERT_EQ(run({"curvature", (dir_ / "merged.ply").string(), out("merged_curv.ply"), "--quiet"}).exit_code, 0);
+  const Result r = run({"curvature", in(), out(), "--quiet"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const io::PointTable merged = io::read_points(dir_ / "merged_curv.ply");
+  const io::PointTable a = io::read_points(dir_ / "out" / "a.ply");
+  ASSERT_NE(a.find("scalar_k1"), nullptr);
+  const std::vector<double>& all = merged.find("scalar_k1")->values;
+  EXPECT_EQ(a.find("scalar_k1")->values, std::vector<double>(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(a.size())));
+  EXPECT_EQ(a.find("red")->values,
+            std::vector<double>(merged.find("red")->values.begin(),
+                                merged.find("red")->values.begin() + static_cast<std::ptrdiff_t>(a.size())));
+  EXPECT_EQ(io::read_points(dir_ / "out" / "b.las").las->records.size(), 1u);
+}
+
 TEST_F(TilesFolder, BadFoldersFailWithOneLineNamingThem) {
   fs::create_directories(dir_ / "empty");
   Result r = run({"smooth", (dir_ / "empty").string(), out(), "--quiet"});
