@@ -153,6 +153,12 @@ TEST_F(TilesFolder, AKilledOutOfCoreRunResumesToTheSameBits) {
     const Result again = run(with({"smooth", in(), out()}, method));
     EXPECT_NE(again.exit_code, 0);
     EXPECT_NE(again.err.find("--resume"), std::string::npos) << again.err;
+    // A folder that is no longer the one the run started from is refused, as a changed file is.
+    fs::copy_file(dir_ / "in" / "a.ply", dir_ / "in" / "d.ply");
+    const Result other = run(with(with({"smooth", in(), out()}, method), {"--resume"}));
+    EXPECT_EQ(other.exit_code, 3);
+    expect_one_line_naming(other, "was started from another input");
+    fs::remove(dir_ / "in" / "d.ply");
     const Result resumed = run(with(with({"smooth", in(), out()}, method), {"--resume"}));
     ASSERT_EQ(resumed.exit_code, 0) << resumed.err;
   }
@@ -168,6 +174,26 @@ TEST_F(TilesFolder, ImportMakesOneContainerOfEveryFile) {
   EXPECT_NE(r.out.find("\"points\": 20000"), std::string::npos) << r.out;
 }
 
+// The cluster's way: the folder imported into a container, the container smoothed, the run
+// exported back into the folder's files: the bits of `smooth IN_DIR OUT_DIR`.
+TEST_F(TilesFolder, AContainerRunIsExportedBackIntoTheFolderFiles) {
+  write_tiles(3000);
+  ASSERT_EQ(run(with({"smooth", in(), out("direct")}, kMethod)).exit_code, 0);
+  ASSERT_EQ(run({"import", in(), out("scan.h5"), "--quiet"}).exit_code, 0);
+  const Result smoothed = run(with({"smooth", out("scan.h5"), out("run.h5")}, kMethod));
+  ASSERT_EQ(smoothed.exit_code, 0) << smoothed.err;
+  const Result exported = run({"export", out("run.h5"), out(), "--files", in(), "--quiet"});
+  ASSERT_EQ(exported.exit_code, 0) << exported.err;
+  for (const char* name : {"a.ply", "b.las", "c.xyz"})
+    EXPECT_EQ(slurp(dir_ / "out" / name), slurp(dir_ / "direct" / name)) << name;
+  // Files that are not those the container was imported from.
+  fs::remove(dir_ / "in" / "c.xyz");
+  const Result fewer = run({"export", out("run.h5"), out("fewer"), "--files", in(), "--quiet"});
+  EXPECT_EQ(fewer.exit_code, 3);
+  expect_one_line_naming(fewer, "they are not the files it was imported from");
+  EXPECT_FALSE(fs::exists(dir_ / "fewer" / "a.ply"));
+}
+
 TEST_F(TilesFolder, CurvatureOfAFolderIsTheMergedClouds) {
   write_tiles(3000);
   ASSERT_EQ(run({"curvature", (dir_ / "merged.ply").string(), out("merged_curv.ply"), "--quiet"}).exit_code, 0);
@@ -177,7 +203,8 @@ TEST_F(TilesFolder, CurvatureOfAFolderIsTheMergedClouds) {
   const io::PointTable a = io::read_points(dir_ / "out" / "a.ply");
   ASSERT_NE(a.find("scalar_k1"), nullptr);
   const std::vector<double>& all = merged.find("scalar_k1")->values;
-  EXPECT_EQ(a.find("scalar_k1")->values, std::vector<double>(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(a.size())));
+  EXPECT_EQ(a.find("scalar_k1")->values,
+            std::vector<double>(all.begin(), all.begin() + static_cast<std::ptrdiff_t>(a.size())));
   EXPECT_EQ(a.find("red")->values,
             std::vector<double>(merged.find("red")->values.begin(),
                                 merged.find("red")->values.begin() + static_cast<std::ptrdiff_t>(a.size())));

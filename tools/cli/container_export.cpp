@@ -8,6 +8,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <numeric>
 #include <string>
 #include <vector>
 
@@ -277,14 +278,29 @@ SelectedExportSummary export_selected(const fs::path& container, const fs::path&
 
 void export_folder(const fs::path& container, const std::vector<fs::path>& sources, const std::vector<fs::path>& outputs,
                    const OutputOptions& out, std::uint64_t memory_budget) {
+  std::vector<io::PointTable> schemas;
+  std::vector<std::uint64_t> counts;
+  bool normals_anywhere = false;
+  for (const fs::path& source : sources) {
+    schemas.push_back(source_schema(source));
+    counts.push_back(count_points(source));
+    normals_anywhere = normals_anywhere || !io::normal_columns(schemas.back()).empty();
+  }
+  // Refused before any file is written when the counts alone tell the files apart.
+  const std::uint64_t held = tiles::point_count(tiles::h5::File::open(container, false));
+  const std::uint64_t total = std::accumulate(counts.begin(), counts.end(), std::uint64_t{0});
+  if (held != total)
+    throw io::IoError(container.string() + ": holds " + std::to_string(held) + " points, the folder's files " +
+                      std::to_string(total) + ": they are not the files it was imported from");
   // One pass over the run's points in their original order: file after file, as imported.
-  tiles::ContainerChunkReader run(container, {.original_order = true, .result_positions = true, .run_attributes = true});
+  tiles::ContainerChunkReader run(
+      container, {.original_order = true, .result_positions = true, .run_attributes = normals_anywhere});
   OutputOptions columns = out;
   columns.colour_by = ColourBy::None;
   for (std::size_t f = 0; f < sources.size(); ++f) {
     const fs::path& source = sources[f];
-    const io::PointTable schema = source_schema(source);
-    const std::uint64_t points = count_points(source);
+    const io::PointTable& schema = schemas[f];
+    const std::uint64_t points = counts[f];
     const bool normals = !io::normal_columns(schema).empty();
     const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
     const auto chunk_points =

@@ -57,7 +57,8 @@ SelectedExportSummary export_selected(const std::filesystem::path& container, co
 /// the smoothed positions of the finished run in `container`, which was imported from the
 /// sources' points concatenated in this order (a folder run): the points of sources[0] take the
 /// container's first points (original order), and so on. Normals a source has are refreshed as
-/// export_container does; every other field is written as read, in the source's layout. Each
+/// export_container does (the container then needs a finished run with attributes); every
+/// other field is written as read, in the source's layout. Each
 /// output appears when complete. Memory stays within `memory_budget`. Throws IoError naming the
 /// file when the sources and the container disagree (a file changed during the run).
 void export_folder(const std::filesystem::path& container, const std::vector<std::filesystem::path>& sources,
