@@ -129,6 +129,13 @@ io::PointTable source_schema(const fs::path& source) {
   return probe->schema();
 }
 
+// Points per chunk of a source read with `schema` while its output is written: the chunk, the
+// run's part of it and the writer's block within a quarter of `memory_budget`.
+std::size_t source_chunk_points(const io::PointTable& schema, std::uint64_t memory_budget) {
+  const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
+  return static_cast<std::size_t>(std::clamp<std::uint64_t>(memory_budget / 4 / point_bytes, 1024, kBlockRows));
+}
+
 // Writes the `points` points `for_each_chunk` calls its visitor with to `output` (format by
 // extension, atomically) with the schema and layout of `source`.
 void write_chunks(const fs::path& output, const io::PointTable& schema, std::uint64_t points, const fs::path& source,
@@ -238,9 +245,7 @@ SelectedExportSummary export_selected(const fs::path& container, const fs::path&
   io::PointTable schema = source_schema(source);
   summary.points = count_points(source);
   const bool normals = !container.empty() && !io::normal_columns(schema).empty();
-  const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
-  const auto chunk_points =
-      static_cast<std::size_t>(std::clamp<std::uint64_t>(memory_budget / 4 / point_bytes, 1024, kBlockRows));
+  const std::size_t chunk_points = source_chunk_points(schema, memory_budget);
   const auto changed = [&] {
     return io::IoError(source.string() + ": changed during the run (its selected points no longer match " +
                        container.string() + ")");
@@ -302,9 +307,7 @@ void export_folder(const fs::path& container, const std::vector<fs::path>& sourc
     const io::PointTable& schema = schemas[f];
     const std::uint64_t points = counts[f];
     const bool normals = !io::normal_columns(schema).empty();
-    const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
-    const auto chunk_points =
-        static_cast<std::size_t>(std::clamp<std::uint64_t>(memory_budget / 4 / point_bytes, 1024, kBlockRows));
+    const std::size_t chunk_points = source_chunk_points(schema, memory_budget);
     // One pass over the source (a LAS output has the source's own grid: no pass for bounds).
     write_chunks(outputs[f], schema, points, source, out, [&](const ChunkVisitor& visit) {
       const auto reader = io::open_point_reader(source);
