@@ -61,15 +61,7 @@ int run_smooth(const Args& args) {
   require_selection_compatible(select, output.attributes, output.colour_by != ColourBy::None);
   set_thread_count(output.threads);
   // A folder IN: its files as one cloud, each written back into the folder OUT.
-  const bool folder = is_folder_input(input);
-  if (folder) {
-    require_folder_options(select, output, !reference.empty());
-    input = without_trailing_separator(input).string();
-    output_path = without_trailing_separator(output_path).string();
-  } else {
-    // A named pipe or a device at OUT is refused before any work, not after it.
-    io::require_output_path(output_path);
-  }
+  check_smooth_paths(input, output_path, select, output, !reference.empty());
   output.attribute_prefix = attribute_prefix_for(output_path);
 
   // One progress line per stage; the steps' line says how the automatic stop works, since

@@ -118,13 +118,7 @@ int run_smooth_out_of_core(const Args& args) {
   if (selecting && (is_container_path(input) || is_container_path(output_path)))
     throw UsageError(std::string(select.classes.empty() ? "--returns" : "--classes") +
                      " takes a point file in and out (a container holds only the points a run smooths)");
-  if (is_folder_input(input)) {
-    require_folder_options(select, output, !ooc.neighbor_reference.empty());
-    input = without_trailing_separator(input).string();
-    output_path = without_trailing_separator(output_path).string();
-  } else {
-    io::require_output_path(output_path);
-  }
+  check_smooth_paths(input, output_path, select, output, !ooc.neighbor_reference.empty());
   if (!runs_out_of_core(input, output_path, params, ooc.memory_budget, ooc.resume))
     return run_smooth(without_budget(args));
 

@@ -54,6 +54,19 @@ void require_folder_options(const SelectionOptions& select, const OutputOptions&
   if (output.colour_by != ColourBy::None) refuse("--colour-by");
 }
 
+bool check_smooth_paths(std::string& input, std::string& output, const SelectionOptions& select,
+                        const OutputOptions& options, bool reference) {
+  if (!is_folder_input(input)) {
+    // A named pipe or a device at OUT is refused before any work, not after it.
+    io::require_output_path(output);
+    return false;
+  }
+  require_folder_options(select, options, reference);
+  input = without_trailing_separator(input).string();
+  output = without_trailing_separator(output).string();
+  return true;
+}
+
 io::PointTable read_folder(const FolderRun& run, bool quiet, std::vector<io::PointTable>& parts) {
   parts.clear();
   io::PointTable cloud;

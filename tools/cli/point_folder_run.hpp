@@ -42,6 +42,13 @@ FolderRun plan_folder_run(const std::filesystem::path& in_dir, const std::filesy
 /// --neighbors-from, --attributes and --colour-by (whose colour range would span every file).
 void require_folder_options(const SelectionOptions& select, const OutputOptions& output, bool reference);
 
+/// The path checks of `smooth IN OUT` before any work: for a folder IN its options
+/// (require_folder_options; `reference`: --neighbors-from was given) and both paths without
+/// trailing separators; for a file IN, OUT checked by io::require_output_path. Returns whether
+/// IN is a folder.
+bool check_smooth_paths(std::string& input, std::string& output, const SelectionOptions& select,
+                        const OutputOptions& options, bool reference);
+
 /// Reads every input of `run` into `parts` (each file's table whole, as read_input reads it)
 /// and returns their positions concatenated in order (a table with no attributes).
 io::PointTable read_folder(const FolderRun& run, bool quiet, std::vector<io::PointTable>& parts);
