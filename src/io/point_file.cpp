@@ -6,6 +6,7 @@
 #include "io_error.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/las.hpp"
+#include "pointfair/io/point_folder.hpp"
 #include "pointfair/io/xyz.hpp"
 
 namespace pointfair::io {
@@ -93,7 +94,7 @@ std::unique_ptr<PointChunkWriter> open_point_writer(const fs::path& file, const 
 }
 
 std::uint64_t count_points(const fs::path& file) {
-  const auto reader = open_point_reader(file);
+  const auto reader = fs::is_directory(file) ? open_folder_reader(point_files_in(file)) : open_point_reader(file);
   if (reader->count()) return *reader->count();
   PointTable chunk;
   while (reader->read(chunk, 1u << 16) > 0) {

@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <limits>
 #include <memory>
+#include <numeric>
 #include <string>
 #include <vector>
 
 #include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/las.hpp"
+#include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/container_reader.hpp"
 
 namespace pointfair::tiles {
@@ -40,6 +42,25 @@ io::PositionQuantization las_grid_of(const std::function<void(const ChunkVisitor
     }
   });
   return io::las_quantization_for(lo, hi);
+}
+
+// The source's whole schema: a LAS file's EVLRs follow its points, and its writer takes them
+// when it opens (skipping to the end seeks over the records).
+io::PointTable source_schema(const fs::path& source) {
+  const auto probe = io::open_point_reader(source);
+  if (const auto count = probe->count()) probe->skip(*count);
+  return probe->schema();
+}
+
+// Points of a source chunk: a quarter of the budget for the chunk and the run's part of it.
+std::size_t source_chunk_points(const io::PointTable& schema, std::uint64_t memory_budget) {
+  const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
+  return static_cast<std::size_t>(std::clamp<std::uint64_t>(memory_budget / 4 / point_bytes, 1024, kBlockRows));
+}
+
+// The input's normals no longer match the moved points: the run's replace them.
+void refresh_from_run(io::PointTable& part, const ContainerChunkReader& run) {
+  if (run.run_attributes().normal.size() == part.size()) io::refresh_normals(part, run.run_attributes().normal);
 }
 
 }  // namespace
@@ -77,19 +98,10 @@ SelectedExportReport export_selected(const fs::path& container, const fs::path& 
                                      const io::PointSelection& selection, const fs::path& output,
                                      const io::WriteOptions& write, std::uint64_t memory_budget) {
   SelectedExportReport summary;
-  // The source's whole schema: a LAS file's EVLRs follow its points, and its writer takes them
-  // when it opens (skipping to the end seeks over the records).
-  io::PointTable schema;
-  {
-    const auto probe = io::open_point_reader(source);
-    if (const auto count = probe->count()) probe->skip(*count);
-    schema = probe->schema();
-  }
+  io::PointTable schema = source_schema(source);
   summary.points = io::count_points(source);
   const bool normals = !container.empty() && !io::normal_columns(schema).empty();
-  const std::uint64_t point_bytes = 2 * (24 + 8 * static_cast<std::uint64_t>(schema.attributes.size())) + 64;
-  const auto chunk_points =
-      static_cast<std::size_t>(std::clamp<std::uint64_t>(memory_budget / 4 / point_bytes, 1024, kBlockRows));
+  const std::size_t chunk_points = source_chunk_points(schema, memory_budget);
   const auto changed = [&] {
     return io::IoError(source.string() + ": changed during the run (its selected points no longer match " +
                        container.string() + ")");
@@ -108,9 +120,7 @@ SelectedExportReport export_selected(const fs::path& container, const fs::path& 
       const std::vector<std::size_t> rows = io::selected_rows(chunk, selection, source);
       if (!rows.empty()) {
         if (!run || run->read(part, rows.size()) != rows.size()) throw changed();
-        // The input's normals no longer match the moved points: the run's replace them.
-        if (normals && run->run_attributes().normal.size() == part.size())
-          io::refresh_normals(part, run->run_attributes().normal);
+        if (normals) refresh_from_run(part, *run);
         for (std::size_t j = 0; j < rows.size(); ++j)
           summary.moved += part.positions[j] != chunk.positions[rows[j]] ? 1 : 0;
         io::splice_rows(chunk, rows, part);
@@ -125,6 +135,50 @@ SelectedExportReport export_selected(const fs::path& container, const fs::path& 
   for_each_chunk([&](const io::PointTable& chunk) { writer->write(chunk); });
   writer->finish();
   return summary;
+}
+
+void export_folder(const fs::path& container, const std::vector<fs::path>& sources, const std::vector<fs::path>& outputs,
+                   const io::WriteOptions& write, std::uint64_t memory_budget) {
+  std::vector<io::PointTable> schemas;
+  std::vector<std::uint64_t> counts;
+  bool normals_anywhere = false;
+  for (const fs::path& source : sources) {
+    schemas.push_back(source_schema(source));
+    counts.push_back(io::count_points(source));
+    normals_anywhere = normals_anywhere || !io::normal_columns(schemas.back()).empty();
+  }
+  // Refused before any file is written when the counts alone tell the files apart.
+  const std::uint64_t held = point_count(h5::File::open(container, false));
+  const std::uint64_t total = std::accumulate(counts.begin(), counts.end(), std::uint64_t{0});
+  if (held != total)
+    throw io::IoError(container.string() + ": holds " + std::to_string(held) + " points, the folder's files " +
+                      std::to_string(total) + ": they are not the files it was imported from");
+  // One pass over the run's points in their original order: file after file, as imported.
+  ContainerChunkReader run(container,
+                           {.original_order = true, .result_positions = true, .run_attributes = normals_anywhere});
+  for (std::size_t f = 0; f < sources.size(); ++f) {
+    const fs::path& source = sources[f];
+    const bool normals = !io::normal_columns(schemas[f]).empty();
+    const std::size_t chunk_points = source_chunk_points(schemas[f], memory_budget);
+    // The output has the source's format: a LAS output takes the source's own grid.
+    io::WriteOptions file_write = write;
+    file_write.input = source;
+    const auto writer = io::open_point_writer(outputs[f], schemas[f], counts[f], file_write);
+    const auto reader = io::open_point_reader(source);
+    io::PointTable chunk, part;
+    while (const std::size_t got = reader->read(chunk, chunk_points)) {
+      if (run.read(part, got) != got)
+        throw io::IoError(source.string() + ": changed during the run (it has more points than " +
+                          container.string() + " holds for it)");
+      chunk.positions.swap(part.positions);
+      if (normals) refresh_from_run(chunk, run);
+      writer->write(chunk);
+    }
+    writer->finish();
+  }
+  io::PointTable rest;
+  if (run.read(rest, 1) != 0)
+    throw io::IoError(container.string() + ": holds more points than the folder's files (a file changed during the run)");
 }
 
 }  // namespace pointfair::tiles

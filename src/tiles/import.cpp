@@ -15,6 +15,7 @@
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/point_file.hpp"
+#include "pointfair/io/point_folder.hpp"
 #include "pointfair/tiles/container_reader.hpp"
 #include "temporary_file.hpp"
 
@@ -353,8 +354,9 @@ class Import {
 
 namespace {
 
-// A point file, or a container (its input positions and attributes in its points' original
-// order): a container imported again gets the tiles of another budget.
+// A point file, a folder of them (their positions, as one cloud: io::open_folder_reader), or a
+// container (its input positions and attributes in its points' original order): a container
+// imported again gets the tiles of another budget.
 // With a selection, only the points it keeps.
 std::unique_ptr<io::PointChunkReader> open_input(const std::filesystem::path& input, const io::PointSelection& select,
                                                  const io::ReadOptions& read = {}) {
@@ -362,6 +364,7 @@ std::unique_ptr<io::PointChunkReader> open_input(const std::filesystem::path& in
   for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   std::unique_ptr<io::PointChunkReader> reader;
   if (e == ".h5" || e == ".hdf5") reader = std::make_unique<ContainerChunkReader>(input, ContainerReaderOptions{.result_positions = false});
+  else if (fs::is_directory(input)) reader = io::open_folder_reader(io::point_files_in(input), read);
   else reader = io::open_point_reader(input, read);
   if (select.all()) return reader;
   return io::open_selected_reader(std::move(reader), select);

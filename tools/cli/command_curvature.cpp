@@ -4,6 +4,8 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "curvature_folder.hpp"
+#include "point_folder_run.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "interrupt.hpp"
 #include "las_options.hpp"
@@ -24,7 +26,11 @@ int run_curvature(const Args& args) {
                         "curvature vector |A| and the feature class (0 smooth, 1 edge, 2 corner), "
                         "without moving any point. Normals point away from the bounding-box "
                         "centre; curvatures are positive where the surface is convex (a sphere: +1/R).");
-  parser.positional("IN", "Input point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv).", &input);
+  parser.positional("IN",
+                    "Input point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv), or a folder whose .las "
+                    ".laz .ply .xyz files are taken as one cloud, each written into the folder OUT "
+                    "(docs/tiles-folder.md).",
+                    &input);
   parser.positional("OUT",
                     "Output point file with the attributes as named properties/columns, after the "
                     "input's own (whose normals are replaced); coloured by kmax unless the input "
@@ -39,6 +45,11 @@ int run_curvature(const Args& args) {
   require_las_output(output.las, output_path);
   params.validate();
   set_thread_count(output.threads);
+  // A folder IN: its files as one cloud, each written into the folder OUT.
+  if (is_folder_input(input)) {
+    return run_curvature_folder(without_trailing_separator(input), without_trailing_separator(output_path), params,
+                                output);
+  }
   // A named pipe or a device at OUT is refused before any work, not after it.
   io::require_output_path(output_path);
   output.attribute_prefix = attribute_prefix_for(output_path);
@@ -59,26 +70,9 @@ int run_curvature(const Args& args) {
   throw_if_interrupted();
   write_output(output_path, table, output, input);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-
-  std::size_t classes[3] = {0, 0, 0};
-  for (const auto c : attributes.feature) ++classes[static_cast<int>(c)];
-  if (!output.quiet)
-    std::fprintf(stderr,
-                 "curvature: %zu points (k %d, lambda %.4g, eps %.4g): %zu smooth, %zu edge, %zu corner, "
-                 "%zu degenerate, %.2f s -> %s\n",
-                 table.size(), neighbor_params.k, lambda, neighborhoods.eps, classes[0], classes[1], classes[2],
-                 attributes.degenerate, seconds, output_path.c_str());
-  if (output.json) {
-    JsonObject counts;
-    counts.add("smooth", classes[0]).add("edge", classes[1]).add("corner", classes[2]);
-    JsonObject j;
-    j.add("command", "curvature").add("version", version()).add("input", input).add("output", output_path);
-    j.add("points", table.size()).add("threads", thread_count());
-    j.add("parameters", parameters_json(params, neighbor_params.k, neighborhoods.eps, lambda));
-    j.add("feature_classes", counts).add("degenerate_points", attributes.degenerate);
-    j.add("seconds", seconds);
-    std::cout << j.str() << std::endl;
-  }
+  print_curvature_summary({.input = input, .output = output_path, .files = 0, .points = table.size(),
+                           .k = neighbor_params.k, .eps = neighborhoods.eps, .lambda = lambda, .seconds = seconds},
+                          attributes, params, output);
   return 0;
 }
 

@@ -8,6 +8,7 @@
 #include "interrupt.hpp"
 #include "json_writer.hpp"
 #include "out_of_core.hpp"
+#include "point_folder_run.hpp"
 #include "run_support.hpp"
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
@@ -28,7 +29,10 @@ int run_import(const Args& args) {
                         "Writes a point file into a tiled HDF5 scan container (docs/out-of-core.md: "
                         "positions, every attribute, original indices, a tile table) for "
                         "out-of-core runs.");
-  parser.positional("IN", "Input point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv).", &input);
+  parser.positional("IN",
+                    "Input point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv), or a folder whose .las "
+                    ".laz .ply .xyz files become one cloud (their positions only; docs/tiles-folder.md).",
+                    &input);
   parser.positional("OUT", "Output container (.h5); written under a temporary name and renamed.", &output);
   parser.value("memory-budget", "SIZE",
                "Memory budget (e.g. 256M, 2G): sets the tile size of later runs and bounds the import's "
@@ -66,6 +70,7 @@ int run_import(const Args& args) {
   if (!parser.parse(args)) return 0;
   if (!tiles::is_container_path(output)) throw UsageError("pointfair import: OUT must be a .h5 file, got '" + output + "'");
   io::require_distinct(input, output);
+  if (std::filesystem::is_directory(input)) input = without_trailing_separator(input).string();
 
   const auto t0 = std::chrono::steady_clock::now();
   options.tiling.max_tile_points = tile_points > 0 ? tile_points : tiles::import_tile_points(budget);

@@ -10,6 +10,7 @@
 #include "las_options.hpp"
 #include "run_support.hpp"
 #include "selection_options.hpp"
+#include "point_folder_run.hpp"
 #include "smooth_point_file.hpp"
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
@@ -31,8 +32,13 @@ int run_smooth(const Args& args) {
                         "recomputed); every other attribute, colours included, and the file's "
                         "layout (PLY encoding, text columns, header, separator) come back as they "
                         "were (docs/formats.md).");
-  parser.positional("IN", "Input point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv).", &input);
-  parser.positional("OUT", "Output point file; written under a temporary name and renamed when complete.",
+  parser.positional("IN",
+                    "Input point file (.ply, .las, .laz, .xyz, .txt, .pts, .csv), or a folder whose "
+                    ".las .laz .ply .xyz files are smoothed as one cloud (docs/tiles-folder.md).",
+                    &input);
+  parser.positional("OUT",
+                    "Output point file, written under a temporary name and renamed when complete; "
+                    "for a folder IN, the folder that gets one file per input file.",
                     &output_path);
   add_method_options(parser, params);
   add_finish_options(parser, params);
@@ -48,13 +54,14 @@ int run_smooth(const Args& args) {
   add_las_options(parser, output.las);
   parser.example("pointfair smooth scan.ply smoothed.ply");
   parser.example("pointfair smooth scan.las ground.las --classes 2 --steps 50 --json");
+  parser.example("pointfair smooth tiles/ smoothed-tiles/");
   if (!parser.parse(args)) return 0;
   require_las_output(output.las, output_path);
   params.validate();
   require_selection_compatible(select, output.attributes, output.colour_by != ColourBy::None);
   set_thread_count(output.threads);
-  // A named pipe or a device at OUT is refused before any work, not after it.
-  io::require_output_path(output_path);
+  // A folder IN: its files as one cloud, each written back into the folder OUT.
+  check_smooth_paths(input, output_path, select, output, !reference.empty());
   output.attribute_prefix = attribute_prefix_for(output_path);
 
   // One progress line per stage; the steps' line says how the automatic stop works, since

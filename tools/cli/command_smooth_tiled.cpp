@@ -10,6 +10,7 @@
 #include "interrupt.hpp"
 #include "las_options.hpp"
 #include "out_of_core.hpp"
+#include "point_folder_run.hpp"
 #include "progress.hpp"
 #include "selection_options.hpp"
 #include "smooth_out_of_core_file.hpp"
@@ -75,8 +76,8 @@ int run_smooth_out_of_core(const Args& args) {
                         "Polthier (2005), out of core: tiles of an HDF5 container stream through a "
                         "bounded memory budget, every step is committed to the output file, and the "
                         "result is bit-identical to the in-core run.");
-  parser.positional("IN", "Input container (.h5) or point file (.ply, .xyz, ...).", &input);
-  parser.positional("OUT", "Output container (.h5) or point file.", &output_path);
+  parser.positional("IN", "Input container (.h5), point file (.ply, .xyz, ...) or folder of point files.", &input);
+  parser.positional("OUT", "Output container (.h5), point file, or folder (for a folder IN).", &output_path);
   add_method_options(parser, params);
   add_finish_options(parser, params);
   add_budget_options(parser, &ooc.memory_budget, &ooc.resume);
@@ -119,7 +120,7 @@ int run_smooth_out_of_core(const Args& args) {
   if (selecting && (tiles::is_container_path(input) || tiles::is_container_path(output_path)))
     throw UsageError(std::string(select.classes.empty() ? "--returns" : "--classes") +
                      " takes a point file in and out (a container holds only the points a run smooths)");
-  io::require_output_path(output_path);
+  check_smooth_paths(input, output_path, select, output, !ooc.neighbor_reference.empty());
   if (!tiles::runs_out_of_core(input, output_path, params, ooc.memory_budget, ooc.resume))
     return run_smooth(without_budget(args));
 

@@ -6,7 +6,8 @@
 
 #include "arguments.hpp"
 #include "pointfair/io/file_lock.hpp"
-#include "pointfair/io/point_table.hpp"
+#include "pointfair/io/point_file.hpp"
+#include "pointfair/io/point_folder.hpp"
 
 namespace pointfair::cli {
 
@@ -32,6 +33,11 @@ std::uint64_t parse_size(std::string_view text, std::string_view what) {
 }
 
 std::uint64_t input_file_size(const std::filesystem::path& file) {
+  if (std::filesystem::is_directory(file)) {
+    std::uint64_t total = 0;
+    for (const auto& f : io::point_files_in(file)) total += input_file_size(f);
+    return total;
+  }
   io::require_regular_input(file);
   std::error_code ec;
   const std::uint64_t size = std::filesystem::file_size(file, ec);

@@ -103,16 +103,23 @@ void add_result_columns(io::PointTable& table, const PointAttributes& a,
     table.set(named + "feature_class", ScalarType::UInt8,
               column([&](std::size_t i) { return static_cast<double>(a.feature[i]); }));
   }
-  if (output.colour_by != ColourBy::None) {
-    const std::vector<double> scalar =
-        output.colour_by == ColourBy::Laplacian
-            ? a.laplacian_norm
-            : column([&](std::size_t i) { return std::max(std::abs(a.k1[i]), std::abs(a.k2[i])); });
-    const auto colours = colour_by_scalar(scalar, output.colour_clip);
-    const char* names[3] = {"red", "green", "blue"};
-    for (int c = 0; c < 3; ++c)
-      table.set(names[c], ScalarType::UInt8,
-                column([&](std::size_t i) { return static_cast<double>(colours[i][static_cast<std::size_t>(c)]); }));
+  if (output.colour_by != ColourBy::None)
+    set_colours(table, colour_by_scalar(colour_scalar(a, output.colour_by), output.colour_clip));
+}
+
+std::vector<double> colour_scalar(const PointAttributes& a, ColourBy by) {
+  if (by == ColourBy::Laplacian) return a.laplacian_norm;
+  std::vector<double> v(a.k1.size());
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = std::max(std::abs(a.k1[i]), std::abs(a.k2[i]));
+  return v;
+}
+
+void set_colours(io::PointTable& table, std::span<const Rgb> colours) {
+  const char* names[3] = {"red", "green", "blue"};
+  for (std::size_t c = 0; c < 3; ++c) {
+    std::vector<double> v(table.size());
+    for (std::size_t i = 0; i < v.size(); ++i) v[i] = static_cast<double>(colours[i][c]);
+    table.set(names[c], io::ScalarType::UInt8, std::move(v));
   }
 }
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "json_writer.hpp"
+#include "pointfair/common/colour.hpp"
 #include "method_options.hpp"
 #include "pointfair/common/parameter.hpp"
 #include "pointfair/io/ply.hpp"
@@ -45,6 +46,13 @@ std::string attribute_prefix_for(const std::filesystem::path& output);
 void add_result_columns(io::PointTable& table, const PointAttributes& attributes,
                         const OutputOptions& output, bool all_attributes,
                         io::ScalarType curvature_type = io::ScalarType::Float32);
+
+/// The scalar `by` colours a point by: max(|k1|, |k2|) (kmax) or |A| (laplacian), per point of
+/// `attributes`. `by` is not ColourBy::None.
+std::vector<double> colour_scalar(const PointAttributes& attributes, ColourBy by);
+
+/// Sets the columns red, green, blue (uint8) of `table` to `colours`, one per row.
+void set_colours(io::PointTable& table, std::span<const Rgb> colours);
 
 /// True when `value` is 0 or within float's normal range: stored as float it stays finite and
 /// non-zero.

@@ -7,6 +7,7 @@
 
 #include "container_export.hpp"
 #include "out_of_core.hpp"
+#include "point_folder_run.hpp"
 #include "run_folder.hpp"
 #include "run_support.hpp"
 #include "pointfair/common/parallel.hpp"
@@ -14,6 +15,7 @@
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
 #include "pointfair/io/file_lock.hpp"
+#include "pointfair/io/point_folder.hpp"
 #include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
@@ -54,7 +56,8 @@ void import_input(const OutOfCoreFileSmooth& run, const fs::path& folder, const 
   const tiles::OutOfCoreOptions& ooc = run.options;
   // What the run continues must be this input: its bytes, not only its size (and the same
   // selection of its points).
-  std::string digest = io::file_digest(run.input);
+  std::string digest = is_folder_input(run.input) ? io::folder_digest(io::point_files_in(run.input))
+                                                 : io::file_digest(run.input);
   if (selecting) digest += " classes " + run.select.classes + " returns " + run.select.returns;
   if (ooc.resume && fs::exists(imported)) {
     const auto f = tiles::h5::File::open(imported, false);
@@ -145,6 +148,11 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
   // and puts them back among the others.
   const bool selecting = !run.select.selection.all();
   if (!container_in) io::require_distinct(input, output_path);
+  // A folder's files, each written back to the output folder (a container output takes the
+  // folder's points as one cloud).
+  const bool folder = is_folder_input(input);
+  FolderRun files;
+  if (folder && !container_out) files = plan_folder_run(input, output_path);
   // Tiles follow the budget: a container whose tiles are larger than the budget's (imported
   // under a larger one) is imported again with the budget's tiles, into the run's folder, as
   // a point file is (a container output then holds those tiles). A resumed run takes the
@@ -233,6 +241,11 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
     const auto t0 = Clock::now();
     selected = tiles::export_selected(result.nothing_selected ? fs::path() : run_output, input, run.select.selection,
                                       output_path, write_options(output, input), ooc.memory_budget);
+    guard.done = true;
+    seconds_write = seconds_since(t0);
+  } else if (folder && !container_out) {
+    const auto t0 = Clock::now();
+    tiles::export_folder(run_output, files.inputs, files.outputs, write_options(output), ooc.memory_budget);
     guard.done = true;
     seconds_write = seconds_since(t0);
   } else if (!container_out) {

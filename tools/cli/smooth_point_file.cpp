@@ -8,6 +8,7 @@
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/point_selection.hpp"
+#include "point_folder_run.hpp"
 
 namespace pointfair::cli {
 
@@ -23,7 +24,13 @@ PointFileSmoothResult smooth_point_file(const PointFileSmooth& run) {
   output.attribute_prefix = attribute_prefix_for(run.output);
 
   const auto t_start = std::chrono::steady_clock::now();
-  io::PointTable table = read_input(run.input, output.quiet);
+  // A folder: its files' points as one cloud (`table`, positions only), each file kept in
+  // `parts` to be written back with its share of the result.
+  const bool folder = is_folder_input(run.input);
+  FolderRun files;
+  std::vector<io::PointTable> parts;
+  if (folder) files = plan_folder_run(run.input, run.output);
+  io::PointTable table = folder ? read_folder(files, output.quiet, parts) : read_input(run.input, output.quiet);
   std::vector<Vec3> reference_positions;
   if (!run.reference.empty()) {
     reference_positions = read_input(run.reference, output.quiet).positions;
@@ -66,15 +73,16 @@ PointFileSmoothResult smooth_point_file(const PointFileSmooth& run) {
   const SmoothReport& report = result.report;
 
   auto t0 = std::chrono::steady_clock::now();
-  const bool need_attributes =
-      output.attributes || output.colour_by != ColourBy::None || !io::normal_columns(table).empty();
+  const bool need_attributes = output.attributes || output.colour_by != ColourBy::None ||
+                               !io::normal_columns(table).empty() || any_normals(parts);
   result.degenerate = report.degenerate;
+  PointAttributes attributes;
   if (need_attributes && result.smoothed) {
     check();
-    const PointAttributes attributes =
-        compute_attributes(table.positions, report.neighborhoods, params.flow, report.lambda);
+    attributes = compute_attributes(table.positions, report.neighborhoods, params.flow, report.lambda);
     result.degenerate = attributes.degenerate;
-    add_result_columns(table, attributes, output, output.attributes, curvature_type(attributes));
+    // A folder's files take their normals when they are written.
+    if (!folder) add_result_columns(table, attributes, output, output.attributes, curvature_type(attributes));
   }
   result.report.neighborhoods = {};
   const double seconds_attributes = seconds_since(t0);
@@ -82,7 +90,8 @@ PointFileSmoothResult smooth_point_file(const PointFileSmooth& run) {
   note("smooth: writing " + run.output);
   t0 = std::chrono::steady_clock::now();
   if (selecting) io::splice_rows(whole, rows, table);
-  write_output(run.output, selecting ? whole : table, output, run.input);
+  if (folder) write_folder(files, parts, table.positions, attributes, output);
+  else write_output(run.output, selecting ? whole : table, output, run.input);
   const double seconds_write = seconds_since(t0);
   result.seconds_total = seconds_since(t_start);
   result.points = selecting ? whole.size() : table.size();

@@ -152,7 +152,10 @@ int run_import(const std::vector<std::string>& args, tiles::Ranks& ranks) {
       "pointfair import on the ranks of an MPI job: each rank reads its share of a binary PLY or "
       "LAS file (rank 0 all of a text file) and writes its points into the container with "
       "parallel HDF5. The container is bit-identical to pointfair import's.");
-  parser.positional("IN", "Input point file (.ply, .las, .xyz, .txt, .pts, .csv).", &input);
+  parser.positional("IN",
+                    "Input point file (.ply, .las, .xyz, .txt, .pts, .csv), or a folder whose .las .laz "
+                    ".ply .xyz files become one cloud of their positions (docs/tiles-folder.md).",
+                    &input);
   parser.positional("OUT", "Output container (.h5); written under a temporary name and renamed.", &output);
   parser.value("memory-budget", "SIZE", "As pointfair import (per rank). Default 256M.",
                [&](std::string_view v) { budget = cli::parse_size(v, "--memory-budget"); });
@@ -184,10 +187,11 @@ int run_import(const std::vector<std::string>& args, tiles::Ranks& ranks) {
   io::require_distinct(input, output);
   const auto t0 = std::chrono::steady_clock::now();
   stream.container.tiling.max_tile_points = tile_points > 0 ? tile_points : tiles::import_tile_points(budget);
-  stream.container.source_name = std::filesystem::path(input).filename().string();
-  std::error_code ec;
-  stream.container.source_size = std::filesystem::file_size(input, ec);
-  if (ec) throw io::IoError(input + ": cannot open: " + ec.message());
+  // A folder's point files are imported as one cloud (tiles/import.hpp), named after the folder.
+  std::filesystem::path named = std::filesystem::path(input).lexically_normal();
+  if (!named.has_filename()) named = named.parent_path();
+  stream.container.source_name = named.filename().string();
+  stream.container.source_size = cli::input_file_size(input);
   stream.memory_budget = budget;
   const bool talk = !quiet && ranks.rank() == 0;
   // The last rank reads the end of the file, where the warnings about what follows the

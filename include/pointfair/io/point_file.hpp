@@ -51,8 +51,8 @@ void write_points(const std::filesystem::path& file, const PointTable& table,
 std::unique_ptr<PointChunkReader> open_point_reader(const std::filesystem::path& file,
                                                     const ReadOptions& options = {});
 
-/// Number of points of `file`: the count its header declares (PLY, LAS), or a pass over a text
-/// file. Throws IoError as open_point_reader and the format's reader.
+/// Number of points of `file` (of a folder: of its point files together, point_folder.hpp):
+/// the count its header declares (PLY, LAS), or a pass over a text file. Throws IoError as open_point_reader and the format's reader.
 std::uint64_t count_points(const std::filesystem::path& file);
 
 /// The chunk writer of `file`'s format (open_ply_writer, open_las_writer or open_xyz_writer), by extension as

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <vector>
 
 #include "pointfair/io/point_file.hpp"
 #include "pointfair/io/point_selection.hpp"
@@ -66,5 +67,19 @@ struct SelectedExportReport {
 SelectedExportReport export_selected(const std::filesystem::path& container, const std::filesystem::path& source,
                                      const io::PointSelection& selection, const std::filesystem::path& output,
                                      const io::WriteOptions& write, std::uint64_t memory_budget);
+
+/// Writes sources[i] to outputs[i] (format by extension, atomically), record by record, with
+/// the smoothed positions of the finished run in `container`, which was imported from the
+/// sources' points concatenated in this order (a folder of tiles, io/point_folder.hpp): the
+/// points of sources[0] take the container's first points (original order), and so on.
+/// Normals a source has are refreshed (io::refresh_normals; the container then needs a
+/// finished run with attributes); every other field is written as read, in the source's
+/// layout. Each output appears when complete. Memory stays within `memory_budget`; `write`'s
+/// input is set to each source in turn. Throws IoError naming the file when the sources and
+/// the container disagree (a file changed during the run), before any file is written when
+/// their point counts differ.
+void export_folder(const std::filesystem::path& container, const std::vector<std::filesystem::path>& sources,
+                   const std::vector<std::filesystem::path>& outputs, const io::WriteOptions& write,
+                   std::uint64_t memory_budget);
 
 }  // namespace pointfair::tiles

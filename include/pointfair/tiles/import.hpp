@@ -61,8 +61,9 @@ struct StreamImportReport {
   std::uint64_t peak_accounted_bytes = 0;
 };
 
-/// Reads `input` (any format of io::open_point_reader, or a container: its input positions and
-/// attributes, in its points' original order, to be tiled again) and writes the container `output`
+/// Reads `input` (any format of io::open_point_reader; a folder of point files, io::point_files_in,
+/// as one cloud of their positions only, concatenated in file-name order; or a container: its
+/// input positions and attributes, in its points' original order, to be tiled again) and writes the container `output`
 /// atomically (a temporary name, renamed when complete), in the layout write_container
 /// writes and smooth_out_of_core reads. Tiles (kd splitting, options.container.tiling
 /// max_tile_points) are built from a histogram of a grid of up to 2^21 cells over the

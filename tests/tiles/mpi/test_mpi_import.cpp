@@ -1,7 +1,8 @@
 // pointfair_mpi import under mpirun (import_points with MpiRanks): each rank reads its share
 // of a binary PLY or LAS file (rank 0 all of a text file) and writes its points with parallel
 // HDF5; the container equals pointfair import's, dataset for dataset and attribute for
-// attribute (h5diff), for 1 to 4 ranks, kd tiles with cut cells, grid tiles and deflate.
+// attribute (h5diff), for 1 to 4 ranks, kd tiles with cut cells, grid tiles and deflate, and a
+// folder of files.
 #include <sys/wait.h>
 
 #include <cstdlib>
@@ -87,6 +88,18 @@ TEST_F(MpiImportTest, LasAndTextFilesEqualTheSingleProcessImport) {
   expect_same_import("in.las", "--tile-points 500", {3});
   io::write_points(path("in.xyz"), test::noisy_cube(2000, 7));
   expect_same_import("in.xyz", "--tile-points 500", {2});  // rank 0 reads the text alone
+}
+
+// A folder of tiles, read as one cloud of the files' positions in name order (each rank skips
+// through the files to its share; rank 0 reads everything once a text file declares no count),
+// equals the single-process import of the folder.
+TEST_F(MpiImportTest, AFolderOfFilesEqualsTheSingleProcessImport) {
+  std::filesystem::create_directories(path("tiles"));
+  io::write_points(path("tiles") / "a.ply", test::noisy_cube(2000, 9));
+  io::write_points(path("tiles") / "b.las", test::noisy_cube(2500, 10));
+  expect_same_import("tiles", "--tile-points 600", {2, 3});
+  io::write_points(path("tiles") / "c.xyz", test::noisy_cube(1000, 11));
+  expect_same_import("tiles", "--tile-points 600", {2});
 }
 
 // A LAS 1.4 file's EVLRs (after the points) are read by every rank, not only by the last
