@@ -5,6 +5,10 @@
 #
 #   tools/slurm/pipeline.sh SCAN WORKDIR RESULT [pointfair_mpi smooth options]
 #   tools/slurm/pipeline.sh scan.las /scratch/me/scan smoothed.ply --steps 50 --memory-budget 48G
+#   tools/slurm/pipeline.sh tiles/ /scratch/me/scan smoothed/ --memory-budget 48G
+#
+# SCAN may be a folder of tiles (every .las .laz .ply .xyz file in it, as one cloud): RESULT is
+# then a folder of the same files (`pointfair export RUN RESULT --files SCAN`).
 #
 # import runs `pointfair_mpi import` on POINTFAIR_IMPORT_NODES nodes (each rank reads its
 # share of a binary PLY or LAS file; rank 0 reads text files alone); smooth runs smooth.sbatch
@@ -44,7 +48,12 @@ import=$(sbatch --parsable "${extra[@]}" --job-name=pointfair-import --nodes="${
   --ntasks-per-node=1 --exclusive --output="$work/%x-%j.log" --wrap "$import_cmd")
 smooth=$(sbatch --parsable "${extra[@]}" --dependency="afterok:$import" --kill-on-invalid-dep=yes \
   --nodes="${POINTFAIR_NODES:-4}" --output="$work/%x-%j.log" "$here/smooth.sbatch" "$container" "$run" "$@")
-export_cmd=$(printf '%q ' "$cli" export "$run" "$result" --attributes)
+# A folder of tiles (docs/tiles-folder.md) comes back as a folder of the same files.
+if [ -d "$scan" ]; then
+  export_cmd=$(printf '%q ' "$cli" export "$run" "$result" --files "$scan")
+else
+  export_cmd=$(printf '%q ' "$cli" export "$run" "$result" --attributes)
+fi
 export=$(sbatch --parsable "${extra[@]}" --dependency="afterok:$smooth" --kill-on-invalid-dep=yes \
   --job-name=pointfair-export --ntasks=1 --exclusive --mem="${POINTFAIR_EXPORT_MEM:-0}" \
   --output="$work/%x-%j.log" --wrap "$export_cmd")

@@ -89,12 +89,27 @@ grep -q "on 2 ranks" "$dir/jobs/100.log" || { echo "FAIL: import did not run on 
 [ "$(cat "$dir/jobs/101.srun_cpus")" = 1 ] || { echo "FAIL: smooth's srun without SRUN_CPUS_PER_TASK"; exit 1; }
 cmp "$dir/ref.ply" "$dir/result.ply" || { echo "FAIL: the pipeline's result differs from the single process's"; exit 1; }
 
+# A folder of tiles: the same chain, the folder's files back, as the single process gives them.
+mkdir "$dir/tiles"
+"$cli" generate sphere "$dir/tiles/a.ply" --points 2000 --noise 0.2 --seed 3 > /dev/null 2>&1
+"$cli" generate sphere "$dir/tiles/b.ply" --points 2000 --noise 0.2 --seed 4 > /dev/null 2>&1
+"$cli" import "$dir/tiles" "$dir/ref_tiles.h5" --memory-budget 16M --tile-points 700 --quiet
+"$cli" smooth "$dir/ref_tiles.h5" "$dir/ref_tiles_run.h5" "${steps[@]}" --threads 1 > /dev/null 2>&1
+"$cli" export "$dir/ref_tiles_run.h5" "$dir/ref_tiles" --files "$dir/tiles" > /dev/null 2>&1
+line=$(run_pipeline "$dir/tiles" "$dir/work_tiles" "$dir/result_tiles" "${steps[@]}")
+for job in $(echo "$line" | grep -o '[0-9][0-9]*'); do
+  [ "$(cat "$dir/jobs/$job")" = 0 ] || { echo "FAIL: folder job $job ended with $(cat "$dir/jobs/$job")"; cat "$dir/jobs/$job.log"; exit 1; }
+done
+for f in a.ply b.ply; do
+  cmp "$dir/ref_tiles/$f" "$dir/result_tiles/$f" || { echo "FAIL: the folder pipeline's $f differs from the single process's"; exit 1; }
+done
+
 # A failing import: smooth and export never run, no result.
 run_pipeline "$dir/missing.ply" "$dir/work2" "$dir/result2.ply" "${steps[@]}" > /dev/null
-[ "$(cat "$dir/jobs/103")" != 0 ] || { echo "FAIL: the import of a missing file succeeded"; exit 1; }
-if [ "$(cat "$dir/jobs/104")" != never ] || [ "$(cat "$dir/jobs/105")" != never ]; then
+[ "$(cat "$dir/jobs/106")" != 0 ] || { echo "FAIL: the import of a missing file succeeded"; exit 1; }
+if [ "$(cat "$dir/jobs/107")" != never ] || [ "$(cat "$dir/jobs/108")" != never ]; then
   echo "FAIL: jobs ran after a failed import"
   exit 1
 fi
 [ ! -e "$dir/result2.ply" ] || { echo "FAIL: a result after a failed import"; exit 1; }
-echo "PASS: import -> smooth -> export on 2 ranks equals the single process, byte for byte"
+echo "PASS: import -> smooth -> export on 2 ranks equals the single process, byte for byte (a file and a folder)"
