@@ -1,5 +1,6 @@
 #include "method_options.hpp"
 
+#include "help_defaults.hpp"
 #include "number_text.hpp"
 
 #include <cmath>
@@ -71,24 +72,24 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
             }
           });
   p.group(OptionGroup::Advanced);
-  p.value("eps-factor", "F", "Multiplier of the automatic eps (dimensionless). Default 2.",
+  p.value("eps-factor", "F", "Multiplier of the automatic eps (dimensionless). " + smooth_default("eps_factor") + ".",
           [&s](std::string_view v) { s.neighbors.eps_auto_factor = parse_double(v, "--eps-factor"); });
   p.group(OptionGroup::Method);
   p.value("steps", "N",
           "Explicit Euler steps (0 reproduces the input); the most steps run when "
-          "an automatic stop ends the anisotropic flow earlier. Default 150.",
+          "an automatic stop ends the anisotropic flow earlier. " + smooth_default("steps") + ".",
           [&s](std::string_view v) { s.steps = parse_int(v, "--steps"); });
   p.value("tau", "T",
           "Step size tau in (0, 1], dimensionless: 1 moves a point to the mean of its kept "
-          "neighbours. Default 0.8 (the paper: 0.5).",
+          "neighbours. " + smooth_default("tau") + " (the paper: 0.5).",
           [&s](std::string_view v) { s.flow.tau = parse_double(v, "--tau"); });
-  p.value("flow", "iso|aniso", "Isotropic (umbrella) or anisotropic Laplacian. Default aniso.",
+  p.value("flow", "iso|aniso", "Isotropic (umbrella) or anisotropic Laplacian. " + smooth_default("flow") + ".",
           [&s](std::string_view v) {
             s.flow.flow = parse_choice<Flow>(v, "flow");
           });
   p.value("cutoff", "sharp|continuous",
           "Cut-off on |kappa_ij|: drop neighbours at or above lambda, or shade them out with "
-          "lambda^2 / (lambda^2 + 10 (|kappa| - lambda)^2). Default sharp.",
+          "lambda^2 / (lambda^2 + 10 (|kappa| - lambda)^2). " + smooth_default("cutoff") + ".",
           [&s](std::string_view v) {
             s.flow.cutoff = parse_choice<Cutoff>(v, "cutoff");
           });
@@ -96,7 +97,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
   p.value("cutoff-origin", "point|plane",
           "Where the cut-off's directional curvatures kappa_ij are measured from: the point "
           "itself (the paper) or its foot on the PCA plane of its neighbourhood, so that a point's "
-          "own noise does not decide which neighbours are kept. Default plane.",
+          "own noise does not decide which neighbours are kept. " + smooth_default("cutoff_origin") + ".",
           [&s](std::string_view v) {
             s.flow.cutoff_origin = parse_choice<CutoffOrigin>(v, "cutoff-origin");
           });
@@ -124,56 +125,57 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Automatic stop of the anisotropic flow, R in [0, 1) (dimensionless): with --lambda auto "
           "and --lambda-schedule every-step, stop once lambda has fallen to R times its value on "
           "the input (the noise is then mostly gone); --steps is the most steps run. 0 = always "
-          "run --steps (the paper). Default 0.1.",
+          "run --steps (the paper). " + smooth_default("stop_lambda_ratio") + ".",
           [&s](std::string_view v) { s.stop_lambda_ratio = parse_double(v, "--stop-lambda-ratio"); });
   p.value("stop-plateau", "D",
           "Second automatic stop, D in [0, 1) (dimensionless), under the same conditions as "
           "--stop-lambda-ratio: stop once lambda has fallen by less than the fraction D over the "
           "last 4 steps (from 8 steps on): on a curved surface lambda falls to the surface's own "
-          "curvature, not to 0. 0 = off (the paper). Default 0.03.",
+          "curvature, not to 0. 0 = off (the paper). " + smooth_default("stop_plateau") + ".",
           [&s](std::string_view v) { s.stop_plateau = parse_double(v, "--stop-plateau"); });
   p.value("shrink-compensation", "B",
           "Shrinkage compensation, B in [0, 1] (dimensionless): subtract B times the mean update "
           "of a point's neighbours from its own update in every step (B = 1: the bi-Laplacian "
-          "flow), so that curved surfaces do not shrink as the noise goes. 0 = the paper's flow. "
-          "Default 1.",
+          "flow), so that curved surfaces do not shrink as the noise goes. 0 = the paper's flow. " +
+              smooth_default("shrink_compensation") + ".",
           [&s](std::string_view v) { s.shrink_compensation = parse_double(v, "--shrink-compensation"); });
-  p.value("lambda-factor", "F", "Multiplier of the automatic lambda (dimensionless). Default 1.",
+  p.value("lambda-factor", "F", "Multiplier of the automatic lambda (dimensionless). " + smooth_default("lambda_factor") + ".",
           [&s](std::string_view v) { s.flow.lambda_auto_factor = parse_double(v, "--lambda-factor"); });
   p.flag("constrain-normal",
-         "The paper's 'constrain interior': move each point along its normal only. Default off.",
+         "The paper's 'constrain interior': move each point along its normal only. " +
+             smooth_default("constrain_normal") + ".",
          [&s] { s.flow.constrain_normal = true; });
   p.value("normal", "pca|robust",
           "Tangent frame of the flow: the PCA plane of the whole neighbourhood (the paper) or a "
           "robust plane refitted from the nearest neighbours with Tukey weights, which does not "
-          "straddle sharp edges. Default robust.",
+          "straddle sharp edges. " + smooth_default("normal") + ".",
           [&s](std::string_view v) {
             s.flow.normal_estimator = parse_choice<NormalEstimator>(v, "normal");
           });
-  const RobustFrameParams robust = SmoothParams{}.flow.robust;
   p.value("robust-seed", "N",
-          "Nearest neighbours of the robust frame's seed plane. Default " + std::to_string(robust.seed_neighbors) + ".",
+          "Nearest neighbours of the robust frame's seed plane. " + smooth_default("robust_seed") + ".",
           [&s](std::string_view v) { s.flow.robust.seed_neighbors = parse_int(v, "--robust-seed"); });
   p.value("robust-iterations", "N",
-          "Reweighting passes of the robust frame. Default " + std::to_string(robust.iterations) + ".",
+          "Reweighting passes of the robust frame. " + smooth_default("robust_iterations") + ".",
           [&s](std::string_view v) { s.flow.robust.iterations = parse_int(v, "--robust-iterations"); });
   p.value("robust-bound", "C",
-          "Tukey bound of the robust frame in robust-scale units (dimensionless). Default " +
-              format_number(robust.inlier_bound) + ".",
+          "Tukey bound of the robust frame in robust-scale units (dimensionless). " +
+              smooth_default("robust_bound") + ".",
           [&s](std::string_view v) { s.flow.robust.inlier_bound = parse_double(v, "--robust-bound"); });
   p.value("rebuild-every", "M",
           "Rebuild the neighbourhoods from the current positions every M steps; 0 = never "
-          "(the paper's default: built once from the input). Default 0.",
+          "(the paper's default: built once from the input). " + smooth_default("rebuild") + ".",
           [&s](std::string_view v) { s.rebuild_interval = parse_int(v, "--rebuild-every"); });
   p.group(OptionGroup::Method);
   p.value("features", "none|quotient|maxcurv",
           "Feature detection: edge quotient |k_min|/|k_max| < Q with |k_max| >= threshold, or "
-          "|k_max| >= threshold; both principal curvatures above it make a corner. Default quotient.",
+          "|k_max| >= threshold; both principal curvatures above it make a corner. " +
+              smooth_default("features") + ".",
           [&s](std::string_view v) {
             s.flow.features.mode = parse_choice<FeatureMode>(v, "features");
           });
   p.group(OptionGroup::Advanced);
-  p.value("edge-quotient", "Q", "Edge quotient threshold Q in [0, 1] (dimensionless). Default 0.5.",
+  p.value("edge-quotient", "Q", "Edge quotient threshold Q in [0, 1] (dimensionless). " + smooth_default("quotient") + ".",
           [&s](std::string_view v) { s.flow.features.quotient = parse_double(v, "--edge-quotient"); });
   p.group(OptionGroup::Method);
   p.value("feature-threshold", "auto|lambda|CURVATURE",
@@ -197,21 +199,21 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
   p.group(OptionGroup::Advanced);
   p.value("feature-turn", "RADIANS",
           "With --feature-threshold auto: the turn of the normal over one neighbourhood radius "
-          "that makes a feature (radians; 0.25 is about 14 degrees). Default 0.25.",
+          "that makes a feature (radians; 0.25 is about 14 degrees). " + smooth_default("feature_turn") + ".",
           [&s](std::string_view v) { s.flow.features.turn = parse_double(v, "--feature-turn"); });
   p.flag("feature-gated",
          "Apply the cut-off only at detected feature points (edges, corners); other points "
-         "flow isotropically. Default off.",
+         "flow isotropically. " + smooth_default("feature_gated") + ".",
          [&s] { s.flow.feature_gated = true; });
   p.value("weights", "paper|uniform",
           "Angular weights of the Weingarten map: the paper's |e|/delta density weights or "
-          "uniform. Default paper.",
+          "uniform. " + smooth_default("weights") + ".",
           [&s](std::string_view v) {
             s.flow.weingarten.weights = parse_choice<AngularWeights>(v, "weights");
           });
   p.value("density-floor", "F",
-          "Lower clamp of the directional density delta_ij, as a fraction of c1 + c2, in (0, 1]. "
-          "Default 0.05.",
+          "Lower clamp of the directional density delta_ij, as a fraction of c1 + c2, in (0, 1]. " +
+              smooth_default("density_floor") + ".",
           [&s](std::string_view v) { s.flow.weingarten.density_floor = parse_double(v, "--density-floor"); });
   // A --coarse-* value turns the coarse level on (with the defaults for the values not given).
   const auto coarse = [&s]() -> CoarseLevelParams& {
@@ -259,37 +261,36 @@ void add_finish_options(ArgumentParser& p, SmoothParams& s) {
          [finish] { finish(); });
   p.flag("no-quadric-finish", "Leave the flow's result as it is (--paper implies it).",
          [&s] { s.finish.reset(); });
-  const QuadricProjectionParams d;
   p.group(OptionGroup::Advanced);
-  p.value("quadric-k", "N", "Neighbours of each quadric fit (5..1024). Default " + std::to_string(d.k) + ".",
+  p.value("quadric-k", "N", "Neighbours of each quadric fit (5..1024). " + finish_default("quadric_k") + ".",
           [finish](std::string_view v) { finish().k = parse_int(v, "--quadric-k"); });
   p.value("quadric-angle", "DEGREES",
           "Largest angle between a point's normal and a neighbour's that keeps the neighbour in "
-          "the point's quadric fit, in (0, 90]. Default " + format_number(d.normal_angle) + ".",
+          "the point's quadric fit, in (0, 90]. " + finish_default("quadric_angle") + ".",
           [finish](std::string_view v) { finish().normal_angle = parse_double(v, "--quadric-angle"); });
   p.value("quadric-degree", "2|3",
           "Degree of each fitted height field: 2 (a quadric) or 3 (a cubic, which follows a "
-          "neighbourhood lying to one side of the point). Default " + std::to_string(d.degree) + ".",
+          "neighbourhood lying to one side of the point). " + finish_default("quadric_degree") + ".",
           [finish](std::string_view v) { finish().degree = parse_int(v, "--quadric-degree"); });
   p.value("quadric-passes", "N",
           "Passes of the finish, each with neighbourhoods, normals and fits from the last one's "
-          "result (1..10). Default " + std::to_string(d.passes) + ".",
+          "result (1..10). " + finish_default("quadric_passes") + ".",
           [finish](std::string_view v) { finish().passes = parse_int(v, "--quadric-passes"); });
   p.value("quadric-iterations", "N",
-          "Tukey reweighting passes of each fit after its first, unweighted one (0..20). Default " +
-              std::to_string(d.iterations) + ".",
+          "Tukey reweighting passes of each fit after its first, unweighted one (0..20). " +
+              finish_default("quadric_iterations") + ".",
           [finish](std::string_view v) { finish().iterations = parse_int(v, "--quadric-iterations"); });
   p.value("quadric-curvature-reach", "C",
           "Fit each quadric only to the neighbours within C / kappa of the point, kappa the "
           "largest principal curvature of a pilot quadric over its --quadric-min-k nearest: "
-          "narrow fits on fine detail, wide ones where the surface is flat. 0: all --quadric-k. "
-          "Default " + format_number(d.curvature_reach) + ".",
+          "narrow fits on fine detail, wide ones where the surface is flat. 0: all --quadric-k. " +
+              finish_default("quadric_curvature_reach") + ".",
           [finish](std::string_view v) {
             finish().curvature_reach = parse_double(v, "--quadric-curvature-reach");
           });
   p.value("quadric-min-k", "N",
-          "Neighbours of the pilot quadric of --quadric-curvature-reach (>= 10). Default " +
-              std::to_string(d.min_k) + ".",
+          "Neighbours of the pilot quadric of --quadric-curvature-reach (>= 10). " +
+              finish_default("quadric_min_k") + ".",
           [finish](std::string_view v) { finish().min_k = parse_int(v, "--quadric-min-k"); });
   p.group(before);
 }
