@@ -311,6 +311,11 @@ std::size_t Run::write_attributes(double lambda) {
     account(bytes(local) + pa.normal.size() * (9 * sizeof(double) + 4 * sizeof(double) + 1) + 3 * bytes(vn) +
             4 * bytes(vk1) +
             bytes(vfeature) + (cached ? 0 : nb.bytes()));
+    // The attributes are the last pass over the lists: the tile's halo rows (read for it, or
+    // kept since the steps) are not needed again, so that the pass holds those of one tile at
+    // a time rather than gathering every tile's.
+    halo_bytes_ -= bytes(halo_rows_[t]);
+    std::vector<std::uint64_t>().swap(halo_rows_[t]);
     progress("attributes", t + 1 - first_tile_, end_tile_ - first_tile_);
   }
   for (std::uint64_t w = my_tiles(); w < writes; ++w) {
