@@ -8,8 +8,10 @@
 #              to the single-process run, failing ranks, resuming on other rank counts; the
 #              import on 1-4 ranks; the Slurm scripts (shellcheck, a run against stand-ins)
 #   asan       the whole suite again under AddressSanitizer + UndefinedBehaviorSanitizer (gcc
-#              -O1), but for the repeat of the core tests against the OpenMP back end and the
-#              quality scenes (FeatureScenes: long runs of code the other tests reach too)
+#              -O1), but for the repeats of the core tests against the OpenMP back end and on
+#              the plain kernels (EulerStepPlainKernel), and the quality measurements
+#              (FeatureScenes, CoarseLevel.RemovesHeavyNoise...: long runs of code the other
+#              tests reach too)
 #   tsan       ThreadSanitizer over the parallel kernels, the tile pipeline and the out-of-core
 #              steps run through it: the core with the std::thread back end (TBB's and
 #              libgomp's own internals are not instrumented in Debian's builds); only their
@@ -86,7 +88,7 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
   cmake --build "$asan" -j"$jobs"
   ASAN_OPTIONS=abort_on_error=1:detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
     LSAN_OPTIONS=suppressions="$PWD/tests/sanitizers/lsan.supp":print_suppressions=0 \
-    ctest --test-dir "$asan" --output-on-failure -j"$jobs" --timeout 600 -E '^FeatureScenes\.'
+    ctest --test-dir "$asan" --output-on-failure -j"$jobs" --timeout 600 -E '^(FeatureScenes\.|CoarseLevel\.RemovesHeavyNoise|EulerStepPlainKernel$)'
 
   stage tsan
   tsan="$build-tsan"
