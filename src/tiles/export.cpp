@@ -44,12 +44,28 @@ io::PositionQuantization las_grid_of(const std::function<void(const ChunkVisitor
   return io::las_quantization_for(lo, hi);
 }
 
-// The source's whole schema: a LAS file's EVLRs follow its points, and its writer takes them
-// when it opens (skipping to the end seeks over the records).
-io::PointTable source_schema(const fs::path& source) {
+// A source's whole schema and its point count, from one reader: a LAS file's EVLRs follow its
+// points, and its writer takes them when it opens (skipping to the end seeks over the
+// records); a text file, whose header gives no count, is read through once.
+struct SourceLayout {
+  io::PointTable schema;
+  std::uint64_t points = 0;
+};
+
+SourceLayout source_layout(const fs::path& source) {
   const auto probe = io::open_point_reader(source);
-  if (const auto count = probe->count()) probe->skip(*count);
-  return probe->schema();
+  SourceLayout layout;
+  if (const auto count = probe->count()) {
+    probe->skip(*count);
+    layout.points = *count;
+  } else {
+    io::PointTable chunk;
+    while (probe->read(chunk, 1u << 16) > 0) {
+    }
+    layout.points = probe->points_read();
+  }
+  layout.schema = probe->schema();
+  return layout;
 }
 
 // Points of a source chunk: a quarter of the budget for the chunk and the run's part of it.
@@ -98,8 +114,9 @@ SelectedExportReport export_selected(const fs::path& container, const fs::path& 
                                      const io::PointSelection& selection, const fs::path& output,
                                      const io::WriteOptions& write, std::uint64_t memory_budget) {
   SelectedExportReport summary;
-  io::PointTable schema = source_schema(source);
-  summary.points = io::count_points(source);
+  SourceLayout layout = source_layout(source);
+  io::PointTable& schema = layout.schema;
+  summary.points = layout.points;
   const bool normals = !container.empty() && !io::normal_columns(schema).empty();
   const std::size_t chunk_points = source_chunk_points(schema, memory_budget);
   const auto changed = [&] {
@@ -143,8 +160,9 @@ void export_folder(const fs::path& container, const std::vector<fs::path>& sourc
   std::vector<std::uint64_t> counts;
   bool normals_anywhere = false;
   for (const fs::path& source : sources) {
-    schemas.push_back(source_schema(source));
-    counts.push_back(io::count_points(source));
+    SourceLayout layout = source_layout(source);
+    schemas.push_back(std::move(layout.schema));
+    counts.push_back(layout.points);
     normals_anywhere = normals_anywhere || !io::normal_columns(schemas.back()).empty();
   }
   // Refused before any file is written when the counts alone tell the files apart.
