@@ -120,44 +120,48 @@ void Run::finish_tile(std::size_t t, const QuadricProjectionParams& q, std::span
   const std::uint64_t rows = tiles_.rows(t);
   result.resize(rows);
   std::uint64_t held = bytes(result) + anchors.size() * sizeof(Vec3);
-  if (finish_part(t, {.box = tiles_.bounds[t], .rows = {}}, q, anchors, result, held)) return;
+  std::uint64_t needed = 0;
+  TilePart whole{.box = tiles_.bounds[t], .rows = {}};
+  if (finish_part(t, whole, q, anchors, result, held, needed)) return;
   ++finish_tiles_in_parts_;
   std::vector<Vec3> points(rows);
   file().dataset(neighbor_source_).read_rows(tiles_.offsets[t], rows, points.data()->data());
   held += bytes(points) + rows * sizeof(std::uint64_t);  // and the parts' rows
-  std::vector<TilePart> parts(1);
-  parts[0].rows.resize(rows);
-  std::iota(parts[0].rows.begin(), parts[0].rows.end(), std::uint64_t{0});
-  parts[0].box = tiles_.bounds[t];
+  whole.rows.resize(rows);
+  std::iota(whole.rows.begin(), whole.rows.end(), std::uint64_t{0});
+  std::vector<TilePart> parts;
+  const auto split = [&](const TilePart& part) {
+    // Not even one point's neighbours fit: refused with what that point needs.
+    if (part.rows.size() < 2) refuse(persistent_bytes() + needed);
+    for (TilePart& half : split_part(part, points)) parts.push_back(std::move(half));
+  };
+  split(whole);
   while (!parts.empty()) {
     TilePart part = std::move(parts.back());
     parts.pop_back();
-    if (finish_part(t, part, q, anchors, result, held)) continue;
-    if (part.rows.size() < 2) {
-      // Not even one point's neighbours fit: refused with what the smallest part needs.
-      account(held + finish_part_bytes(static_cast<std::uint64_t>(q.k) * 8, 1, q.k, q.normal_neighbors));
-      assert(false && "account() refuses what finish_part found too large");
-    }
-    for (TilePart& half : split_part(part, points)) parts.push_back(std::move(half));
+    if (!finish_part(t, part, q, anchors, result, held, needed)) split(part);
   }
 }
 
 bool Run::finish_part(std::size_t t, const TilePart& part, const QuadricProjectionParams& q,
-                      std::span<const Vec3> anchors, std::vector<Vec3>& result, std::uint64_t held) {
+                      std::span<const Vec3> anchors, std::vector<Vec3>& result, std::uint64_t held,
+                      std::uint64_t& needed) {
   const bool whole = part.rows.empty();
   const std::uint64_t queries = whole ? tiles_.rows(t) : part.rows.size();
   const int m = std::min(q.k, q.normal_neighbors);
   const std::uint64_t fixed = persistent_bytes() + held;
   const std::uint64_t per_point = finish_part_bytes(1, 0, q.k, m);
   const std::uint64_t for_queries = finish_part_bytes(0, queries, q.k, m);
+  needed = held + for_queries + queries * per_point;
   if (fixed + for_queries + queries * per_point > options_.memory_budget) return false;
   const std::uint64_t max_points = (options_.memory_budget - fixed - for_queries) / per_point;
+  needed = held + for_queries + (max_points + 1) * per_point;
   std::vector<Vec3> part_result, part_anchors;
   for (double halo = knn_first_halo(part.box, queries, q.k);; halo *= 2.0) {
     std::optional<LocalSet> local = gather_part(t, halo, part, max_points);
     if (!local) return false;
     std::optional<FinishLists> lists = finish_lists(part.box, halo, *local, q);
-    const std::uint64_t needed = held + finish_part_bytes(local->positions.size(), queries, q.k, m);
+    needed = held + finish_part_bytes(local->positions.size(), queries, q.k, m);
     if (!lists) {
       account(needed);
       continue;

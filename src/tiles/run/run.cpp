@@ -64,12 +64,15 @@ void Run::account(std::uint64_t working) {
   max_working_ = std::max(max_working_, working);
   const std::uint64_t total = persistent_bytes() + working;
   peak_ = std::max(peak_, total);
-  if (total > options_.memory_budget)
-    throw BudgetError("the memory budget of " + size_text(options_.memory_budget, false) +
-                          " is too small for the tiles of " + input_path_.string() + " (the run needs " +
-                          size_text(total, true) +
-                          "): give a larger budget, or import the input again with a smaller budget (smaller tiles)",
-                      options_.memory_budget, total);
+  if (total > options_.memory_budget) refuse(total);
+}
+
+void Run::refuse(std::uint64_t total) const {
+  throw BudgetError("the memory budget of " + size_text(options_.memory_budget, false) +
+                        " is too small for the tiles of " + input_path_.string() + " (the run needs " +
+                        size_text(total, true) +
+                        "): give a larger budget, or import the input again with a smaller budget (smaller tiles)",
+                    options_.memory_budget, total);
 }
 
 void Run::commit_state(const std::vector<std::int64_t>& record) {

@@ -316,12 +316,16 @@ class Run {
   void finish_tile(std::size_t t, const QuadricProjectionParams& q, std::span<const Vec3> anchors,
                    std::vector<Vec3>& result);
   // One pass of the finish for `part` of tile t into `result` (the tile's rows); false when
-  // the part with its halo would not fit the budget beside `held` bytes.
+  // the part with its halo would not fit the budget beside `held` bytes, `needed` then the
+  // working bytes it would take at least.
   bool finish_part(std::size_t t, const TilePart& part, const QuadricProjectionParams& q,
-                   std::span<const Vec3> anchors, std::vector<Vec3>& result, std::uint64_t held);
+                   std::span<const Vec3> anchors, std::vector<Vec3>& result, std::uint64_t held,
+                   std::uint64_t& needed);
   std::size_t write_attributes(double lambda);
   void finish(std::size_t attributes_degenerate, double lambda);
   void account(std::uint64_t working);
+  // Throws the BudgetError of a run that needs `total` bytes.
+  [[noreturn]] void refuse(std::uint64_t total) const;
   std::uint64_t persistent_bytes() const {
     return cache_bytes_ + halo_bytes_ + bytes(halo_rows_) + (halo_scratch_ ? halo_scratch_->bytes() : 0) +
            (ring_scratch_ ? ring_scratch_->bytes() : 0) + bytes(block_lists_at_) + bytes(block_record_) + bytes(tiles_.offsets) + bytes(tiles_.bounds) + bytes(sample_rows_) +
