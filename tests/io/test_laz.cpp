@@ -287,6 +287,43 @@ TEST_F(LazErrors, CorruptChunkNamesTheChunk) {
   expect(corrupt, "corrupt");
 }
 
+// Any corrupted byte of the compressed points either still decodes (the format has no
+// checksum) or fails with an error naming the file, whichever codec and model it hits: the
+// symbol models with a decoder table (over 16 symbols, as RGB's and the layered codec's use)
+// were indexed out of bounds by a value outside the coder's interval.
+TEST_F(LazErrors, EveryCorruptedByteDecodesOrNamesTheFile) {
+  for (const int format : {3, 7}) {
+    const PointTable table = format == 3 ? laz_test_table(3, 400, 5, true) : testing::laz14_test_table(7, 400, 5, true);
+    write_las(dir_ / "valid.laz", table, {.laz_chunk_size = 150});
+    const std::string bytes = read_file(dir_ / "valid.laz");
+    const std::size_t start = point_data_offset(bytes) + 8;
+    const std::size_t end = std::min(bytes.size(), start + 1500);
+    int refused = 0;
+    const auto read = [&](const std::string& corrupt) {
+      write_file(file_, corrupt);
+      try {
+        EXPECT_EQ(read_las(file_).size(), table.size());
+      } catch (const IoError& error) {
+        EXPECT_NE(std::string(error.what()).find(file_.string()), std::string::npos) << error.what();
+        ++refused;
+      }
+    };
+    // One byte inverted, and four bytes of 0xff: a coded stream that starts with those holds
+    // a value no smaller than the coder's initial interval.
+    for (std::size_t at = start; at < end; ++at) {
+      std::string corrupt = bytes;
+      if (at % 7 == 0) {
+        corrupt[at] = static_cast<char>(~corrupt[at]);
+        read(corrupt);
+        corrupt = bytes;
+      }
+      for (std::size_t k = at; k < std::min(end, at + 4); ++k) corrupt[k] = static_cast<char>(0xff);
+      read(corrupt);
+    }
+    EXPECT_GT(refused, 0) << "format " << format;
+  }
+}
+
 TEST_F(LazErrors, TruncatedLayeredFileNamesTheChunk) {
   write_las(dir_ / "valid.laz", testing::laz14_test_table(7, 400, 11, false), {.laz_chunk_size = 150});
   const std::string bytes = read_file(dir_ / "valid.laz");

@@ -92,6 +92,7 @@ void ArithmeticDecoder::start() {
   length_ = kMaxLength;
   value_ = 0;
   for (int i = 0; i < 4; ++i) value_ = (value_ << 8) | bytes_.get();
+  check_inside();
 }
 
 void ArithmeticDecoder::renormalise() {
@@ -101,6 +102,7 @@ void ArithmeticDecoder::renormalise() {
 }
 
 std::uint32_t ArithmeticDecoder::decode_bit(BitModel& m) {
+  check_inside();
   const std::uint32_t x = m.bit_0_prob * (length_ >> kBitLengthShift);
   const std::uint32_t bit = value_ >= x ? 1u : 0u;
   if (bit == 0) {
@@ -118,13 +120,16 @@ std::uint32_t ArithmeticDecoder::decode_bit(BitModel& m) {
 std::uint32_t ArithmeticDecoder::decode_symbol(SymbolModel& m) {
   // Bisection for the symbol whose cumulative interval holds the value: distribution[k] *
   // length > value exactly when distribution[k] > value / length (integer division), so a
-  // table over value / length narrows where it starts.
+  // table over value / length narrows where it starts. Inside the interval, value / length
+  // stays below 2^15 + 2^6, so the table index stays within its two spare entries.
+  check_inside();
   std::uint32_t y = length_;
   std::uint32_t x = 0, symbol = 0, n = m.symbols;
   length_ >>= kSymbolLengthShift;
   if (!m.decoder_table.empty()) {
     const std::uint32_t scaled = value_ / length_;
     const std::uint32_t t = scaled >> m.table_shift;
+    assert(t + 1 < m.decoder_table.size());
     symbol = m.decoder_table[t];
     n = m.decoder_table[t + 1] + 1;
     while (n > symbol + 1) {
@@ -156,6 +161,7 @@ std::uint32_t ArithmeticDecoder::decode_symbol(SymbolModel& m) {
 }
 
 std::uint32_t ArithmeticDecoder::read_short() {
+  check_inside();
   length_ >>= 16;
   const std::uint32_t value = value_ / length_;
   value_ -= value * length_;
@@ -169,6 +175,7 @@ std::uint32_t ArithmeticDecoder::read_bits(unsigned count) {
     const std::uint32_t lower = read_short();
     return (read_bits(count - 16) << 16) | lower;
   }
+  check_inside();
   length_ >>= count;
   const std::uint32_t value = value_ / length_;
   value_ -= value * length_;

@@ -14,6 +14,10 @@
 
 namespace pointfair::io::laz {
 
+/// Thrown when the coded value falls outside the decoder's interval, which no encoder
+/// writes: the stream is corrupt. Caught, like ChunkOverrun, by the chunk reader.
+struct CorruptCode {};
+
 /// An adaptive model of one binary decision.
 struct BitModel {
   BitModel() { reset(); }
@@ -45,7 +49,8 @@ struct SymbolModel {
   unsigned table_shift = 0;
 };
 
-/// Decodes from `bytes` (which throw ChunkOverrun past their end).
+/// Decodes from `bytes` (which throw ChunkOverrun past their end). Throws CorruptCode when
+/// the stream cannot have been written by an encoder.
 class ArithmeticDecoder {
  public:
   explicit ArithmeticDecoder(ChunkBytes& bytes) : bytes_(bytes) {}
@@ -60,6 +65,10 @@ class ArithmeticDecoder {
  private:
   std::uint32_t read_short();
   void renormalise();
+  /// An encoder keeps the value inside the interval; a value outside it is corrupt data.
+  void check_inside() const {
+    if (value_ >= length_) throw CorruptCode{};
+  }
 
   ChunkBytes& bytes_;
   std::uint32_t value_ = 0, length_ = 0;

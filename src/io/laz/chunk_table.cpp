@@ -40,6 +40,8 @@ std::optional<std::vector<ChunkEntry>> read_chunk_table(const std::filesystem::p
     return chunks;
   } catch (const ChunkOverrun&) {
     return std::nullopt;
+  } catch (const CorruptCode&) {
+    return std::nullopt;
   }
 }
 

@@ -170,6 +170,8 @@ void LazRecordReader::read(char* out, std::size_t count) {
     } catch (const ChunkOverrun&) {
       if (table_) fail_chunk("is corrupt: its points need more than the " + std::to_string((*table_)[chunk_].bytes) + " bytes the chunk table gives it");
       fail_chunk("is truncated: its points run past the end of the file's point data");
+    } catch (const CorruptCode&) {
+      fail_chunk("is corrupt: its compressed values fall outside the range coder's interval");
     }
     ++decoded_;
     if (--left_in_chunk_ == 0) finish_chunk();
