@@ -283,26 +283,37 @@ Vec3 placed_on_quadric(const Vec3& anchor, const Vec3& p, std::span<const Index>
   return project_one(p, &anchor, neighbors, points, params, s);
 }
 
+namespace {
+
+// The normals of rows [0, out.size()) of `rows`: row r is point first + r of `points`.
+void normals_of_rows(std::span<const Vec3> points, NeighborhoodsView rows, std::size_t first,
+                     const QuadricProjectionParams& params, std::span<Vec3> out) {
+  parallel_for(out.size(), [&](std::size_t begin, std::size_t end) {
+    std::vector<Vec3> offsets;
+    std::vector<double> weights, scratch;
+    for (std::size_t r = begin; r < end; ++r) {
+      const std::span<const Index> nb = rows.of(r);
+      const Vec3& p = points[first + r];
+      const std::size_t m = std::min<std::size_t>(nb.size(), static_cast<std::size_t>(params.normal_neighbors));
+      offsets.resize(m);
+      for (std::size_t j = 0; j < m; ++j) offsets[j] = points[nb[j]] - p;
+      weights.assign(m + 1, 0.0);
+      scratch.resize(m + 1);
+      const RobustPlane plane = fit_robust_plane(offsets, params.frame, weights, scratch);
+      out[r] = plane.valid ? plane.normal : Vec3::Zero();
+    }
+  }, 1024);
+}
+
+}  // namespace
+
 std::vector<Vec3> neighbourhood_normals(std::span<const Vec3> points, const Neighborhoods& neighborhoods,
                                         const QuadricProjectionParams& params) {
   params.validate();
   const std::size_t n = neighborhoods.size();
   require(points.size() == n, "neighbourhood_normals: one neighbourhood row per point");
   std::vector<Vec3> normals(n, Vec3::Zero());
-  parallel_for(n, [&](std::size_t begin, std::size_t end) {
-    std::vector<Vec3> offsets;
-    std::vector<double> weights, scratch;
-    for (std::size_t i = begin; i < end; ++i) {
-      const std::span<const Index> nb = neighborhoods.of(i);
-      const std::size_t m = std::min<std::size_t>(nb.size(), static_cast<std::size_t>(params.normal_neighbors));
-      offsets.resize(m);
-      for (std::size_t j = 0; j < m; ++j) offsets[j] = points[nb[j]] - points[i];
-      weights.assign(m + 1, 0.0);
-      scratch.resize(m + 1);
-      const RobustPlane plane = fit_robust_plane(offsets, params.frame, weights, scratch);
-      if (plane.valid) normals[i] = plane.normal;
-    }
-  }, 1024);
+  normals_of_rows(points, neighborhoods, 0, params, normals);
   return normals;
 }
 
@@ -413,31 +424,36 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
   // Morton order instead (`stored`, row s holding point order[s]), with every list built as
   // before in the caller's indices (the canonical tie rule) and relabelled to rows: each
   // point's fit sees the same neighbours in the same order, so no bit of the result changes.
-  // The k-long lists of every point at once would hold 4 k bytes a point (800 at k 200): the
-  // normals come from lists as long as they read (the first entries of the k-long rows, as
-  // the canonical order makes them), the fits from the k-long lists of one block of points at
-  // a time.
-  NeighborParams near;
-  near.k = std::min(params.k, params.normal_neighbors);
-  near.eps = inf;
+  // The k-long lists of every point at once would hold 4 k bytes a point (800 at k 200), and
+  // the normals' short ones 64 at the defaults: both are built for one block of points at a
+  // time from the pass's grid (the normals of every point first, since a block's fits read
+  // its neighbours' normals), in the canonical order of the whole-cloud lists.
+  const int near_k = std::min(params.k, params.normal_neighbors);
   const std::vector<Index> order = spatial_order(points);
   const std::vector<Index> row_of = inverse_permutation(order);
   std::vector<Vec3> stored = gather(points, order), out(n), block_anchors;
   std::vector<Index> queries, stored_queries;
   Neighborhoods rows;
+  std::vector<Vec3> normals(n);
   for (int pass = 0; pass < params.passes; ++pass) {
     const bool last = pass + 1 == params.passes;
-    const std::vector<Vec3> normals =
-        neighbourhood_normals(stored, build_reordered_neighborhoods(points, near, order, row_of), params);
     // One grid a pass for every block's queries (a grid a block cost a sort of the whole
     // cloud per kQuadricBlock points: quadratic in the cloud's size).
     const CellGrid grid = build_cell_grid(points, params.k, inf);
-    for (std::size_t first = 0; first < n; first += kQuadricBlock) {
-      const std::size_t count = std::min(kQuadricBlock, n - first);
+    const auto block_queries = [&](std::size_t first, std::size_t count, int k) {
       queries.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
                      order.begin() + static_cast<std::ptrdiff_t>(first + count));
-      grid_neighborhoods(grid, queries, params.k, inf, rows);
+      grid_neighborhoods(grid, queries, k, inf, rows);
       relabel_neighborhoods_in_place(rows, row_of);
+    };
+    for (std::size_t first = 0; first < n; first += kQuadricBlock) {
+      const std::size_t count = std::min(kQuadricBlock, n - first);
+      block_queries(first, count, near_k);
+      normals_of_rows(stored, rows, first, params, std::span<Vec3>(normals).subspan(first, count));
+    }
+    for (std::size_t first = 0; first < n; first += kQuadricBlock) {
+      const std::size_t count = std::min(kQuadricBlock, n - first);
+      block_queries(first, count, params.k);
       stored_queries.resize(count);  // row r of the block: stored point first + r
       std::iota(stored_queries.begin(), stored_queries.end(), static_cast<Index>(first));
       if (last && !anchors.empty()) {

@@ -17,11 +17,10 @@ std::uint64_t in_core_bytes(std::uint64_t points, int k, bool compensated) {
 std::uint64_t in_core_finish_bytes(std::uint64_t points, const QuadricProjectionParams& q) {
   // The output positions, the normals, the input kept for the placement
   // (SmoothParams::placement) and the copy in Morton order with the order and its inverse
-  // (finish_with_quadrics), the normals' lists, the pass's grid, and one block of the fits'
-  // lists (4 bytes an entry, a count per row).
-  const std::uint64_t near = static_cast<std::uint64_t>(std::min(q.k, q.normal_neighbors));
+  // (finish_with_quadrics), the pass's grid, and one block of lists (4 bytes an entry, a
+  // count per row): the fits' k-long ones, or the normals' shorter ones in the same storage.
   const std::uint64_t block = std::min<std::uint64_t>(points, kQuadricBlock);
-  return points * (4 * 24 + 8 + 4 * near + 2 + 50) + block * (4 * static_cast<std::uint64_t>(q.k) + 2);
+  return points * (4 * 24 + 8 + 50) + block * (4 * static_cast<std::uint64_t>(q.k) + 2);
 }
 
 bool fits_in_core(std::uint64_t points, const SmoothParams& params, std::uint64_t budget) {

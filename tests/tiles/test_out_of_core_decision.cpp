@@ -20,7 +20,7 @@ TEST(InCoreEstimate, TinyCases) {
   QuadricProjectionParams finish;
   finish.k = 100;
   finish.normal_neighbors = 20;
-  EXPECT_EQ(in_core_finish_bytes(10, finish), 10u * (4 * 24 + 8 + 4 * 20 + 2 + 50) + 10u * (4 * 100 + 2));
+  EXPECT_EQ(in_core_finish_bytes(10, finish), 10u * (4 * 24 + 8 + 50) + 10u * (4 * 100 + 2));
 }
 
 TEST(InCoreEstimate, TheAutomaticKIsSizedForItsLargest) {
