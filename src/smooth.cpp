@@ -310,13 +310,20 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
   require_finite(positions, "smooth");
   require(!requested.coarse || options.neighbor_reference.empty(),
           "a coarse level cannot take neighbourhoods from a reference cloud");
+  require(options.input_positions.empty() || options.input_positions.size() == positions.size(),
+          "smooth: input_positions must hold one position per point (" + std::to_string(options.input_positions.size()) +
+              " vs " + std::to_string(positions.size()) + ")");
   const bool place = requested.finish && requested.placement == Placement::AlongNormal;
-  // The input positions the placement moves along the normals (24 bytes a point).
-  const std::vector<Vec3> input = place ? positions : std::vector<Vec3>{};
+  // The input positions the placement moves along the normals (24 bytes a point, unless the
+  // caller holds them).
+  const std::vector<Vec3> input_copy = place && options.input_positions.empty() ? positions : std::vector<Vec3>{};
+  const std::span<const Vec3> input =
+      !place ? std::span<const Vec3>{} : !options.input_positions.empty() ? options.input_positions : std::span<const Vec3>(input_copy);
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<CoarseLevelReport> levels;
   SmoothReport report = flow_with_levels(positions, requested, options, levels);
   report.coarse_levels = std::move(levels);
+  if (!options.keep_neighborhoods) report.neighborhoods = Neighborhoods{};
   if (!report.coarse_levels.empty())
     report.seconds_coarse = seconds_since(t0) - report.seconds_neighbors - report.seconds_steps;
   if (!requested.finish) return report;

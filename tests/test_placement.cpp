@@ -8,6 +8,7 @@
 #include <cmath>
 #include <vector>
 
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/clouds.hpp"
 
@@ -96,6 +97,33 @@ TEST_F(PlacementTest, TheFreeFlowSlidesAlongTheGround) {
   const Moves m = moves_of(*scene_, run(free));
   EXPECT_GT(quantile(m.sideways, 0.5), 0.1 * kSpacing);
   EXPECT_GT(quantile(m.inward, 0.95), 2.0 * kSigma);
+}
+
+// The placement reads the caller's copy of the input when given one, and the flow's lists are
+// let go when not wanted: the same bits either way. A copy that is not the input moves the
+// result, so the copy is what the placement reads.
+TEST(Placement, ReadsTheCallersInputCopyAndGivesTheSameBitsWithoutTheLists) {
+  const test::GroundWithBox scene = test::ground_with_box(1.0, 0.1, 0.3, 0.4, 0.01, 5);
+  const SmoothParams defaults;
+  std::vector<Vec3> own = scene.points, lean = scene.points, shifted = scene.points;
+  const SmoothReport own_report = smooth(own, defaults);
+  EXPECT_EQ(own_report.neighborhoods.size(), own.size());
+  SmoothOptions options;
+  options.keep_neighborhoods = false;
+  options.input_positions = scene.points;
+  const SmoothReport lean_report = smooth(lean, defaults, options);
+  EXPECT_EQ(lean, own);
+  EXPECT_EQ(lean_report.neighborhoods.size(), 0u);
+  EXPECT_EQ(lean_report.steps, own_report.steps);
+  std::vector<Vec3> moved_input = scene.points;
+  for (Vec3& p : moved_input) p += Vec3(0.02, 0.0, 0.0);
+  options.input_positions = moved_input;
+  smooth(shifted, defaults, options);
+  EXPECT_NE(shifted, own);
+  std::vector<Vec3> short_input(scene.points.begin(), scene.points.end() - 1);
+  options.input_positions = short_input;
+  std::vector<Vec3> refused = scene.points;
+  EXPECT_THROW(smooth(refused, defaults, options), ParamError);
 }
 
 TEST(Placement, IsIgnoredWithoutTheFinish) {

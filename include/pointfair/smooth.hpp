@@ -194,6 +194,14 @@ struct SmoothOptions {
   /// each block of each finish pass (points done over all passes, points x passes). May throw
   /// to stop the run (smooth() then leaves `positions` as documented there).
   std::function<void(SmoothStage, std::size_t, std::size_t)> progress;
+  /// Return the flow's last neighbourhoods in SmoothReport::neighborhoods (compute_attributes
+  /// reads them). false: they are let go before the finish, whose peak memory is then 4 k
+  /// bytes a point lower (192 at k 48).
+  bool keep_neighborhoods = true;
+  /// The input positions, when the caller keeps a copy of them anyway (same size and order as
+  /// the positions smooth() is given): the placement along the normals reads them instead of
+  /// a copy of its own (24 bytes a point). Empty: smooth() copies them.
+  std::span<const Vec3> input_positions;
 };
 
 struct SmoothReport {

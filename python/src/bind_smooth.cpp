@@ -73,6 +73,7 @@ py::array_t<double> smooth_points(const py::handle& points, const py::kwargs& kw
   SmoothOptions options;
   options.neighbor_reference = reference.points;
   options.progress = progress_hook(o.progress);
+  options.keep_neighborhoods = false;  // only the positions are returned
   std::vector<Vec3> positions;
   {
     const py::gil_scoped_release release;

@@ -65,16 +65,19 @@ PointFileSmoothResult smooth_point_file(const PointFileSmooth& run) {
   if (result.smoothed)
     note("smooth: " + std::to_string(table.size()) + (selecting ? " selected" : "") + " points read; neighbourhoods...");
 
+  const bool need_attributes = output.attributes || output.colour_by != ColourBy::None ||
+                               !io::normal_columns(table).empty() || any_normals(parts);
   SmoothOptions options;
   options.neighbor_reference = reference_positions;
   options.progress = run.progress;
+  // The flow's lists are kept only for the attributes; the placement reads `before`.
+  options.keep_neighborhoods = need_attributes;
+  options.input_positions = before;
   check();
   if (result.smoothed) result.report = smooth(table.positions, params, options);
   const SmoothReport& report = result.report;
 
   auto t0 = std::chrono::steady_clock::now();
-  const bool need_attributes = output.attributes || output.colour_by != ColourBy::None ||
-                               !io::normal_columns(table).empty() || any_normals(parts);
   result.degenerate = report.degenerate;
   PointAttributes attributes;
   if (need_attributes && result.smoothed) {
