@@ -92,7 +92,11 @@ void ArithmeticDecoder::start() {
   length_ = kMaxLength;
   value_ = 0;
   for (int i = 0; i < 4; ++i) value_ = (value_ << 8) | bytes_.get();
-  check_inside();
+  // Every decoding step keeps the value inside the interval (a bit or symbol narrows it to the
+  // part that holds the value, raw bits leave the remainder of a division by the new length,
+  // renormalising shifts both): only the first four bytes can put it outside, which no encoder
+  // writes.
+  if (value_ >= length_) throw CorruptCode{};
 }
 
 void ArithmeticDecoder::renormalise() {
@@ -102,7 +106,7 @@ void ArithmeticDecoder::renormalise() {
 }
 
 std::uint32_t ArithmeticDecoder::decode_bit(BitModel& m) {
-  check_inside();
+  assert(value_ < length_);
   const std::uint32_t x = m.bit_0_prob * (length_ >> kBitLengthShift);
   const std::uint32_t bit = value_ >= x ? 1u : 0u;
   if (bit == 0) {
@@ -122,7 +126,7 @@ std::uint32_t ArithmeticDecoder::decode_symbol(SymbolModel& m) {
   // length > value exactly when distribution[k] > value / length (integer division), so a
   // table over value / length narrows where it starts. Inside the interval, value / length
   // stays below 2^15 + 2^6, so the table index stays within its two spare entries.
-  check_inside();
+  assert(value_ < length_);
   std::uint32_t y = length_;
   std::uint32_t x = 0, symbol = 0, n = m.symbols;
   length_ >>= kSymbolLengthShift;
@@ -161,7 +165,6 @@ std::uint32_t ArithmeticDecoder::decode_symbol(SymbolModel& m) {
 }
 
 std::uint32_t ArithmeticDecoder::read_short() {
-  check_inside();
   length_ >>= 16;
   const std::uint32_t value = value_ / length_;
   value_ -= value * length_;
@@ -175,7 +178,6 @@ std::uint32_t ArithmeticDecoder::read_bits(unsigned count) {
     const std::uint32_t lower = read_short();
     return (read_bits(count - 16) << 16) | lower;
   }
-  check_inside();
   length_ >>= count;
   const std::uint32_t value = value_ / length_;
   value_ -= value * length_;

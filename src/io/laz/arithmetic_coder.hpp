@@ -14,8 +14,8 @@
 
 namespace pointfair::io::laz {
 
-/// Thrown when the coded value falls outside the decoder's interval, which no encoder
-/// writes: the stream is corrupt. Caught, like ChunkOverrun, by the chunk reader.
+/// Thrown when a coded stream starts with a value outside the decoder's interval, which no
+/// encoder writes: the stream is corrupt. Caught, like ChunkOverrun, by the chunk reader.
 struct CorruptCode {};
 
 /// An adaptive model of one binary decision.
@@ -65,10 +65,6 @@ class ArithmeticDecoder {
  private:
   std::uint32_t read_short();
   void renormalise();
-  /// An encoder keeps the value inside the interval; a value outside it is corrupt data.
-  void check_inside() const {
-    if (value_ >= length_) throw CorruptCode{};
-  }
 
   ChunkBytes& bytes_;
   std::uint32_t value_ = 0, length_ = 0;
