@@ -314,11 +314,14 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
           "smooth: input_positions must hold one position per point (" + std::to_string(options.input_positions.size()) +
               " vs " + std::to_string(positions.size()) + ")");
   const bool place = requested.finish && requested.placement == Placement::AlongNormal;
-  // The input positions the placement moves along the normals (24 bytes a point, unless the
-  // caller holds them).
-  const std::vector<Vec3> input_copy = place && options.input_positions.empty() ? positions : std::vector<Vec3>{};
-  const std::span<const Vec3> input =
-      !place ? std::span<const Vec3>{} : !options.input_positions.empty() ? options.input_positions : std::span<const Vec3>(input_copy);
+  // The input positions the placement moves along the normals: the caller's, or a copy (24
+  // bytes a point).
+  std::vector<Vec3> input_copy;
+  std::span<const Vec3> input;
+  if (place) {
+    if (options.input_positions.empty()) input_copy = positions;
+    input = options.input_positions.empty() ? std::span<const Vec3>(input_copy) : options.input_positions;
+  }
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<CoarseLevelReport> levels;
   SmoothReport report = flow_with_levels(positions, requested, options, levels);
