@@ -84,12 +84,17 @@ struct SmoothParams {
   /// 2.03 / 33.3° for the paper's reading (paper_smooth_params). README, Quality. The robust
   /// plane reweights once (RobustFrameParams::iterations 1, not 3): the steps take half the
   /// time, and over the quality benchmark the normal error near creases rose by at most 0.6°,
-  /// RMS by at most 1.2% (smooth models) and fell on the CAD models (docs/defaults.md).
+  /// RMS by at most 1.2% (smooth models) and fell on the CAD models (docs/defaults.md). The
+  /// robust plane is fitted only where the PCA plane is ambiguous (RobustFrameParams::gate 2:
+  /// across creases and tight bends, not where noise alone spreads the neighbourhood); the
+  /// steps take a third to a half of the time, with the quality benchmark's table in
+  /// docs/defaults.md.
   FlowParams flow = [] {
     FlowParams f;
     f.cutoff_origin = CutoffOrigin::Plane;
     f.normal_estimator = NormalEstimator::Robust;
     f.robust.iterations = 1;
+    f.robust.gate = 2.0;
     f.tau = 0.8;
     return f;
   }();

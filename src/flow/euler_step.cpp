@@ -32,14 +32,36 @@ void FlowParams::validate() const {
   robust.validate();
 }
 
+namespace {
+
+// The noise gauge the robust plane's gate reads (RobustFrameParams::gate): the automatic
+// lambda as measured, before lambda_auto_factor scales it into the cut-off's threshold; a fixed
+// lambda as given.
+double gate_lambda(const FlowParams& params, double lambda) {
+  return params.lambda > 0.0 ? lambda : lambda / params.lambda_auto_factor;
+}
+
+// The robust frame, or the PCA frame where RobustFrameParams::gate keeps it.
+Frame gated_robust_frame(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points,
+                         const FlowParams& params, double lambda) {
+  if (params.robust.gate > 0.0) {
+    const Frame pca = compute_frame(p, neighbors, points);
+    const double trace = pca.c0 + pca.c1 + pca.c2;
+    if (pca.valid && !needs_robust_plane(pca.c0 / trace, trace, gate_lambda(params, lambda), params.robust.gate))
+      return pca;
+  }
+  return compute_robust_frame(p, neighbors, points, params.robust);
+}
+
+}  // namespace
+
 PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
                           std::span<const Vec3> points, const FlowParams& params, double lambda,
                           bool with_curvature) {
   PointState s;
   if (neighbors.empty()) return s;
-  s.frame = params.normal_estimator == NormalEstimator::Robust
-                ? compute_robust_frame(p, neighbors, points, params.robust)
-                : compute_frame(p, neighbors, points);
+  s.frame = params.normal_estimator == NormalEstimator::Robust ? gated_robust_frame(p, neighbors, points, params, lambda)
+                                                               : compute_frame(p, neighbors, points);
   const bool needs_frame = params.flow == Flow::Anisotropic || params.constrain_normal ||
                            params.feature_gated || with_curvature;
   if (needs_frame && !s.frame.valid) return s;
@@ -288,6 +310,9 @@ struct Prepared {
   std::size_t m = 0;
   std::size_t padded = 0;
   detail::SymmetricCovariance covariance;
+  /// The covariance's trace before symmetric_covariance brings it near 1 (which only a
+  /// trace outside [2^-200, 2^200] needs): the robust plane's gate reads it.
+  double trace = 0.0;
 };
 
 // Gathers the m > 0 neighbour offsets of p into d and sums them into s.
@@ -321,12 +346,13 @@ POINTFAIR_INLINE void prepare(const Vec3& p, std::span<const Index> neighbors,
     s.mean = mean;
     const LaneSums s1 = lane_sums(moments.xx, moments.xy, moments.xz, moments.yy);
     const LaneSums s2 = lane_sums(moments.yz, moments.zz, Q{}, Q{});
-    s.covariance = detail::symmetric_covariance(s1.a * inv_count - mean.x() * mean.x(),
-                                                s1.b * inv_count - mean.x() * mean.y(),
-                                                s1.c * inv_count - mean.x() * mean.z(),
-                                                s1.d * inv_count - mean.y() * mean.y(),
-                                                s2.a * inv_count - mean.y() * mean.z(),
-                                                s2.b * inv_count - mean.z() * mean.z());
+    const double a00 = s1.a * inv_count - mean.x() * mean.x();
+    const double a11 = s1.d * inv_count - mean.y() * mean.y();
+    const double a22 = s2.b * inv_count - mean.z() * mean.z();
+    s.covariance = detail::symmetric_covariance(a00, s1.b * inv_count - mean.x() * mean.y(),
+                                                s1.c * inv_count - mean.x() * mean.z(), a11,
+                                                s2.a * inv_count - mean.y() * mean.z(), a22);
+    s.trace = a00 + a11 + a22;
   }
 }
 
@@ -384,14 +410,21 @@ POINTFAIR_INLINE Displacement fast_displacement(const Vec3& p, std::span<const I
     // The umbrella operator needs no frame.
     return {params.tau * (-s.sum * (1.0 / static_cast<double>(s.m))), true};
   } else {
+    const detail::SymmetricCovariance& c = s.covariance;
     if (params.normal_estimator == NormalEstimator::Robust) {
-      // The robust plane (robust_frame.hpp) instead of the PCA plane: its normal and its
-      // weighted barycentre; the cut-off is the same.
+      // The PCA plane where the gate keeps it (RobustFrameParams::gate), else the robust plane
+      // (robust_frame.hpp): its normal and its weighted barycentre; the cut-off is the same.
+      if (params.robust.gate > 0.0) {
+        double c0 = 0.0;
+        const detail::SymmetricCovariance* one = &c;
+        detail::smallest_eigenvalues<1>(&one, 1, &c0);
+        if (!needs_robust_plane(c0 / c.tr, s.trace, gate_lambda(params, lambda), params.robust.gate))
+          return finish<K, Q>(s, s.mean, detail::normal_from_smallest_eigenvalue(c, c0), params, lambda, d);
+      }
       const RobustPlane plane = robust_plane_of(d, s.m, params.robust);
       return finish<K, Q>(s, -plane.mean, NormalEstimate{plane.normal, plane.valid}, params,
                           lambda, d);
     }
-    const detail::SymmetricCovariance& c = s.covariance;
     return finish<K, Q>(s, s.mean, detail::covariance_normal(c.a00, c.a01, c.a02, c.a11, c.a12, c.a22),
                         params, lambda, d);
   }
@@ -466,24 +499,44 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
       ++count;
     }
     if (robust) {
+      // With a gate (RobustFrameParams::gate), the points whose PCA plane it keeps move at
+      // once; the others (lanes lane_of[0, fits)) get the robust plane, batched as before.
+      const bool gate = params.robust.gate > 0.0;
+      const double gauge = gate_lambda(params, lambda);
+      double c0[kBatch];
+      if (gate) detail::smallest_eigenvalues<kBatch>(covariances, count, c0);
       std::span<const Vec3> lane_offsets[kBatch];
       std::span<double> lane_weights[kBatch], lane_scratch[kBatch];
-      RobustPlane planes[kBatch];
+      std::size_t lane_of[kBatch];
+      std::size_t fits = 0;
       for (std::size_t i = 0; i < count; ++i) {
-        const std::size_t m = prepared[i].m;
+        const Prepared& s = prepared[i];
+        if (gate && !needs_robust_plane(c0[i] / s.covariance.tr, s.trace, gauge, params.robust.gate)) {
+          const std::size_t row = batch_rows[i];
+          const Vec3& p = current[rows.empty() ? row : rows[row]];
+          const NormalEstimate estimate = detail::normal_from_smallest_eigenvalue(s.covariance, c0[i]);
+          const Displacement d = finish<K, Q>(s, s.mean, estimate, params, lambda, offsets[i]);
+          if (!d.valid) ++degenerate;
+          next[row] = p + d.value;
+          continue;
+        }
+        const std::size_t m = s.m;
         const Offsets& d = offsets[i];
-        for (std::size_t j = 0; j < m; ++j) robust_offsets[i][j] = -Vec3(d.x[j], d.y[j], d.z[j]);
-        lane_offsets[i] = std::span<const Vec3>(robust_offsets[i].data(), m);
-        lane_weights[i] = std::span<double>(robust_weights[i].data(), m + 1);
-        lane_scratch[i] = std::span<double>(robust_scratch[i].data(), m + 1);
+        for (std::size_t j = 0; j < m; ++j) robust_offsets[fits][j] = -Vec3(d.x[j], d.y[j], d.z[j]);
+        lane_offsets[fits] = std::span<const Vec3>(robust_offsets[fits].data(), m);
+        lane_weights[fits] = std::span<double>(robust_weights[fits].data(), m + 1);
+        lane_scratch[fits] = std::span<double>(robust_scratch[fits].data(), m + 1);
+        lane_of[fits++] = i;
       }
-      detail::fit_robust_planes<kBatch>(lane_offsets, count, params.robust, lane_weights,
+      RobustPlane planes[kBatch];
+      detail::fit_robust_planes<kBatch>(lane_offsets, fits, params.robust, lane_weights,
                                         lane_scratch, planes);
-      for (std::size_t i = 0; i < count; ++i) {
+      for (std::size_t f = 0; f < fits; ++f) {
+        const std::size_t i = lane_of[f];
         const std::size_t row = batch_rows[i];
         const Vec3& p = current[rows.empty() ? row : rows[row]];
-        const Displacement d = finish<K, Q>(prepared[i], -planes[i].mean,
-                                            NormalEstimate{planes[i].normal, planes[i].valid},
+        const Displacement d = finish<K, Q>(prepared[i], -planes[f].mean,
+                                            NormalEstimate{planes[f].normal, planes[f].valid},
                                             params, lambda, offsets[i]);
         if (!d.valid) ++degenerate;
         next[row] = p + d.value;

@@ -17,6 +17,7 @@ void RobustFrameParams::validate() const {
           "robust iterations must be in 0..100, got " + std::to_string(iterations));
   require(inlier_bound > 0.0 && std::isfinite(inlier_bound),
           "robust inlier bound must be positive, got " + std::to_string(inlier_bound));
+  require(gate >= 0.0 && std::isfinite(gate), "robust gate must be >= 0 (0 = everywhere), got " + std::to_string(gate));
 }
 
 RobustPlane fit_robust_plane(std::span<const Vec3> offsets, const RobustFrameParams& params,

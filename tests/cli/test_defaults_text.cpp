@@ -44,6 +44,7 @@ std::map<std::string, std::string> library_defaults() {
       {"robust-seed", text(p.flow.robust.seed_neighbors)},
       {"robust-iterations", text(p.flow.robust.iterations)},
       {"robust-bound", text(p.flow.robust.inlier_bound)},
+      {"robust-gate", text(p.flow.robust.gate)},
       {"rebuild-every", text(p.rebuild_interval)},
       {"edge-quotient", text(p.flow.features.quotient)},
       {"feature-threshold", p.flow.features.scale == FeatureScale::Spacing ? "auto" : "lambda"},

@@ -140,7 +140,9 @@ std::vector<Vec3> euler_step(std::span<const Vec3> points,
     const Vec3& p = points[i];
     Frame f = frame(p, nbs[i], points);
     Vec3 origin = p;
-    if (o.robust) {
+    const double trace = f.c0 + f.c1 + f.c2;
+    const bool pca_kept = o.robust_gate > 0.0 && f.c0 <= o.robust_gate * (o.lambda * trace) * (o.lambda * trace);
+    if (o.robust && !pca_kept) {
       const Plane plane = robust_plane(p, nbs[i], points, 6, 3, 3.0);
       f.normal = plane.normal;
       if (o.plane_origin) origin = p + f.normal.dot(plane.centroid - p) * f.normal;

@@ -107,6 +107,9 @@ struct StepOptions {
   bool plane_origin = false;
   /// The robust plane (seed 6, 3 passes, bound 3) instead of the PCA plane.
   bool robust = false;
+  /// With `robust`: > 0 keeps the PCA plane where its smallest eigenvalue c0 is at most this
+  /// times (lambda (c0 + c1 + c2))^2 (RobustFrameParams::gate).
+  double robust_gate = 0.0;
   double lambda = 1.0;
   double tau = 0.5;
   bool normal_only = false;

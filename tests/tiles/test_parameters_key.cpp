@@ -32,6 +32,7 @@ std::string reference_parameters_key(const SmoothParams& p) {
   if (p.shrink_compensation != 0.0) s << " shrink_compensation=" << p.shrink_compensation;
   if (p.flow.features.threshold == 0.0 && p.flow.features.scale == FeatureScale::Spacing)
     s << " feature_scale=spacing feature_turn=" << p.flow.features.turn;
+  if (p.flow.robust.gate != 0.0) s << " robust_gate=" << p.flow.robust.gate;
   return s.str();
 }
 
@@ -65,6 +66,7 @@ TEST(ParametersKey, TheTablesWriteTheLineWrittenByHand) {
   changed.flow.normal_estimator = NormalEstimator::Pca;
   changed.stop_plateau = 0.0;
   changed.shrink_compensation = 0.0;
+  changed.flow.robust.gate = 0.0;
   SmoothParams fixed_threshold;
   fixed_threshold.flow.features.threshold = 2.5;
   SmoothParams lambda_rule;

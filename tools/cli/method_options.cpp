@@ -162,6 +162,12 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Tukey bound of the robust frame in robust-scale units (dimensionless). " +
               smooth_default("robust_bound") + ".",
           [&s](std::string_view v) { s.flow.robust.inlier_bound = parse_double(v, "--robust-bound"); });
+  p.value("robust-gate", "G",
+          "Where the robust frame is fitted (dimensionless; 0 = at every point): a point keeps its "
+          "PCA plane unless that plane's smallest covariance eigenvalue exceeds G (lambda x "
+          "trace)^2, as across a crease; under noise alone it stays below. " +
+              smooth_default("robust_gate") + ".",
+          [&s](std::string_view v) { s.flow.robust.gate = parse_double(v, "--robust-gate"); });
   p.value("rebuild-every", "M",
           "Rebuild the neighbourhoods from the current positions every M steps; 0 = never "
           "(the paper's default: built once from the input). " + smooth_default("rebuild") + ".",

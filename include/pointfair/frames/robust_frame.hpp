@@ -24,9 +24,27 @@ struct RobustFrameParams {
   int iterations = 3;
   /// Tukey's bound in units of the robust scale: points farther from the plane get weight 0.
   double inlier_bound = 3.0;
+  /// Where the robust plane is fitted (dimensionless, >= 0; 0: at every point). With a gate G,
+  /// a point keeps the PCA plane of itself and its neighbours unless that plane is ambiguous:
+  /// its covariance's smallest eigenvalue c0 exceeds G (lambda tr)^2, tr the covariance's trace
+  /// and lambda the step's noise gauge: the automatic lambda as measured (before
+  /// FlowParams::lambda_auto_factor), or a fixed lambda (needs_robust_plane). Under noise alone c0 grows
+  /// as sigma^2 and lambda tr as sigma, so the ratio stays near a constant whatever the noise
+  /// level; across a crease or a tight bend c0 grows with the neighbourhood's extent instead.
+  double gate = 0.0;
 
   void validate() const;
 };
+
+/// Whether a point needs the robust plane under `gate` (RobustFrameParams::gate): its PCA
+/// covariance has smallest eigenvalue over trace `smallest_over_trace` (scale-free) and trace
+/// `trace`, the step's noise gauge is `lambda`. True with no gate, and where the ratio is not a
+/// number (a degenerate neighbourhood: the robust fit decides as it did without a gate).
+inline bool needs_robust_plane(double smallest_over_trace, double trace, double lambda, double gate) {
+  if (gate == 0.0) return true;
+  // c0 > G lambda^2 tr^2, divided by tr.
+  return !(smallest_over_trace <= gate * (lambda * lambda) * trace);
+}
 
 /// The fitted plane: unit normal (sign arbitrary), the weighted barycentre relative to p, and
 /// the weighted covariance about it (divided by the total weight).
