@@ -11,6 +11,7 @@
 #include "pointfair/neighbors/knn_grid.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/shapes/shapes.hpp"
+#include "pointfair/smooth.hpp"
 
 namespace {
 
@@ -119,6 +120,26 @@ void step_benchmark(benchmark::State& state, Flow flow) {
 void BM_IsotropicStep(benchmark::State& state) { step_benchmark(state, Flow::Isotropic); }
 void BM_AnisotropicStep(benchmark::State& state) { step_benchmark(state, Flow::Anisotropic); }
 
+// The defaults' step (SmoothParams{}.flow: the plane cut-off origin, the robust plane behind
+// its gate) at k 48, the automatic k under noise of a spacing or more, with the robust plane
+// gated (the defaults) or fitted at every point (gate 0): the ratio of the two is what the
+// gate saves per step.
+void default_step_benchmark(benchmark::State& state, double gate) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  const Neighborhoods nb = build_neighborhoods(points, {.k = 48});
+  FlowParams params = SmoothParams{}.flow;
+  params.robust.gate = gate;
+  const double lambda = resolve_lambda(points, nb, params);
+  std::vector<Vec3> next(points.size());
+  for (auto _ : state) {
+    euler_step(points, nb, {}, params, lambda, next);
+    benchmark::DoNotOptimize(next.data());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+void BM_DefaultStepGated(benchmark::State& state) { default_step_benchmark(state, SmoothParams{}.flow.robust.gate); }
+void BM_DefaultStepRobustEverywhere(benchmark::State& state) { default_step_benchmark(state, 0.0); }
+
 }  // namespace
 
 BENCHMARK(BM_KdTreeBuild)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
@@ -130,5 +151,7 @@ BENCHMARK(BM_Frames)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchma
 BENCHMARK(BM_Weingarten)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_IsotropicStep)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_AnisotropicStep)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_DefaultStepGated)->RangeMultiplier(4)->Range(10'000, 1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_DefaultStepRobustEverywhere)->RangeMultiplier(4)->Range(10'000, 1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 BENCHMARK_MAIN();

@@ -74,6 +74,9 @@ py::array_t<double> smooth_points(const py::handle& points, const py::kwargs& kw
   options.neighbor_reference = reference.points;
   options.progress = progress_hook(o.progress);
   options.keep_neighborhoods = false;  // only the positions are returned
+  // The placement along the normals reads the caller's positions (or their converted copy in
+  // `in`), which outlive the run, rather than a copy of its own.
+  options.input_positions = in.points;
   std::vector<Vec3> positions;
   {
     const py::gil_scoped_release release;

@@ -36,6 +36,9 @@ class SmoothMatchesCommand(Folder):
                     "--steps", "6", "--no-quadric-finish", "--move", "free", "--normal", "pca", "--eps", "inf"],
                    shape="sphere")
 
+    def test_robust_gate(self):
+        self.check({"robust_gate": 0, "steps": 6}, ["--robust-gate", "0", "--steps", "6"])
+
     def test_finish_options_and_lambda(self):
         self.check({"quadric_k": 40, "quadric_passes": 1, "lambda": 5.0, "steps": 4},
                    ["--quadric-k", "40", "--quadric-passes", "1", "--lambda", "5", "--steps", "4"])
