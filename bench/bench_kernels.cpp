@@ -104,11 +104,10 @@ void BM_Weingarten(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
 
-void step_benchmark(benchmark::State& state, Flow flow) {
+// One step of `params` at k over the noisy cube.
+void step_benchmark(benchmark::State& state, const FlowParams& params, int k) {
   const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
-  const Neighborhoods nb = build_neighborhoods(points, {.k = 16});
-  FlowParams params;
-  params.flow = flow;
+  const Neighborhoods nb = build_neighborhoods(points, {.k = k});
   const double lambda = resolve_lambda(points, nb, params);
   std::vector<Vec3> next(points.size());
   for (auto _ : state) {
@@ -117,25 +116,24 @@ void step_benchmark(benchmark::State& state, Flow flow) {
   }
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
-void BM_IsotropicStep(benchmark::State& state) { step_benchmark(state, Flow::Isotropic); }
-void BM_AnisotropicStep(benchmark::State& state) { step_benchmark(state, Flow::Anisotropic); }
+
+// The paper's step at k 16.
+void paper_step_benchmark(benchmark::State& state, Flow flow) {
+  FlowParams params;
+  params.flow = flow;
+  step_benchmark(state, params, 16);
+}
+void BM_IsotropicStep(benchmark::State& state) { paper_step_benchmark(state, Flow::Isotropic); }
+void BM_AnisotropicStep(benchmark::State& state) { paper_step_benchmark(state, Flow::Anisotropic); }
 
 // The defaults' step (SmoothParams{}.flow: the plane cut-off origin, the robust plane behind
 // its gate) at k 48, the automatic k under noise of a spacing or more, with the robust plane
 // gated (the defaults) or fitted at every point (gate 0): the ratio of the two is what the
 // gate saves per step.
 void default_step_benchmark(benchmark::State& state, double gate) {
-  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
-  const Neighborhoods nb = build_neighborhoods(points, {.k = 48});
   FlowParams params = SmoothParams{}.flow;
   params.robust.gate = gate;
-  const double lambda = resolve_lambda(points, nb, params);
-  std::vector<Vec3> next(points.size());
-  for (auto _ : state) {
-    euler_step(points, nb, {}, params, lambda, next);
-    benchmark::DoNotOptimize(next.data());
-  }
-  state.SetItemsProcessed(state.iterations() * state.range(0));
+  step_benchmark(state, params, 48);
 }
 void BM_DefaultStepGated(benchmark::State& state) { default_step_benchmark(state, SmoothParams{}.flow.robust.gate); }
 void BM_DefaultStepRobustEverywhere(benchmark::State& state) { default_step_benchmark(state, 0.0); }

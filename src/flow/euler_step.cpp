@@ -471,6 +471,9 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
   // point's result is the one it gets alone, to the bit.
   constexpr std::size_t kBatch = 4;
   const bool robust = params.normal_estimator == NormalEstimator::Robust;
+  // The robust plane's gate (RobustFrameParams::gate) and the noise gauge it reads.
+  const bool gate = robust && params.robust.gate > 0.0;
+  const double gauge = gate_lambda(params, lambda);
   Offsets offsets[kBatch];
   Prepared prepared[kBatch];
   const detail::SymmetricCovariance* covariances[kBatch];
@@ -499,10 +502,8 @@ POINTFAIR_INLINE std::size_t step_rows(std::span<const Vec3> current,
       ++count;
     }
     if (robust) {
-      // With a gate (RobustFrameParams::gate), the points whose PCA plane it keeps move at
-      // once; the others (lanes lane_of[0, fits)) get the robust plane, batched as before.
-      const bool gate = params.robust.gate > 0.0;
-      const double gauge = gate_lambda(params, lambda);
+      // With a gate, the points whose PCA plane it keeps move at once; the others (lanes
+      // lane_of[0, fits)) get the robust plane, batched as before.
       double c0[kBatch];
       if (gate) detail::smallest_eigenvalues<kBatch>(covariances, count, c0);
       std::span<const Vec3> lane_offsets[kBatch];
