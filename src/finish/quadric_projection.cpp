@@ -1,6 +1,7 @@
 #include "pointfair/finish/quadric_projection.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -101,8 +102,8 @@ template <int Degree>
 // With `at` (tangent coordinates u, v), also the fit's height there into *height_at.
 template <int Degree>
 [[gnu::always_inline]] inline bool fit_height(const QuadricProjectionParams& params, std::size_t count, Scratch& s, double& height,
-                double* second = nullptr, double* scale = nullptr, const double* at = nullptr,
-                double* height_at = nullptr) {
+                double* second = nullptr, double* scale = nullptr, double* coefficients = nullptr,
+                double* inv_reach_out = nullptr) {
   constexpr int terms = kTerms<Degree>;
   constexpr int stride = kStride<Degree>;
   using Vec = Eigen::Matrix<double, terms, 1>;
@@ -149,7 +150,10 @@ template <int Degree>
   }
   if (!fitted || !std::isfinite(c[0])) return false;
   height = c[0];
-  if (at != nullptr) *height_at = monomials<Degree>(at[0] * inv_reach, at[1] * inv_reach).dot(c);
+  if (coefficients != nullptr) {
+    std::copy(c.data(), c.data() + terms, coefficients);
+    *inv_reach_out = inv_reach;
+  }
   if (scale != nullptr) {
     for (std::size_t j = 0; j < count; ++j) s.residuals[j] = std::abs(residual(j, c));
     *scale = 1.4826 * detail::select_kth(std::span<const double>(s.residuals.data(), count), count / 2,
@@ -180,24 +184,33 @@ void QuadricProjectionParams::validate() const {
   require(inlier_bound > 0.0, "quadric inlier bound must be > 0, got " + std::to_string(inlier_bound));
   require(placement_turn >= 0.0 && std::isfinite(placement_turn),
           "quadric placement turn must be >= 0, got " + std::to_string(placement_turn));
+  require(share_stride >= 1 && share_stride <= 64,
+          "quadric share stride must be in 1..64, got " + std::to_string(share_stride));
+  require(share_turn >= 0.0 && std::isfinite(share_turn),
+          "quadric share turn must be >= 0, got " + std::to_string(share_turn));
   frame.validate();
 }
 
 namespace {
 
-// p moved along the normal of its robust plane onto its fit; with an anchor, the anchor moved
-// along that normal onto the same fit instead (placed_on_quadric).
-[[gnu::always_inline]] inline Vec3 project_one(const Vec3& p, const Vec3* anchor, std::span<const Index> neighbors, std::span<const Vec3> points,
-                 const QuadricProjectionParams& params, Scratch& s) {
+// p's fit (project_to_quadric's) over `neighbors`: its robust plane, the pilot quadric's
+// curvature and the Tukey-reweighted height field over the neighbours within reach.
+[[gnu::always_inline]] inline QuadricFit fit_one(const Vec3& p, std::span<const Index> neighbors,
+                                                 std::span<const Vec3> points, const QuadricProjectionParams& params,
+                                                 Scratch& s) {
+  QuadricFit fit;
+  fit.origin = p;
   const std::size_t m = neighbors.size() + 1;  // p itself and its neighbours
-  if (m < 6) return p;
+  if (m < 6) return fit;
   s.offsets.resize(neighbors.size());
   for (std::size_t j = 0; j < neighbors.size(); ++j) s.offsets[j] = points[neighbors[j]] - p;
   s.weights.assign(m, 0.0);
   s.plane_scratch.resize(m);
   const RobustPlane plane = fit_robust_plane(s.offsets, params.frame, s.weights, s.plane_scratch);
-  if (!plane.valid) return p;
+  if (!plane.valid) return fit;
   const Vec3 n = plane.normal;
+  fit.status = QuadricFit::Status::Plane;
+  fit.normal = n;
   const Vec3 t1 = n.unitOrthogonal();
   const Vec3 t2 = n.cross(t1);
   s.u.resize(m);
@@ -211,9 +224,6 @@ namespace {
     s.h[j] = d.dot(n);
   }
   s.residuals.resize(m);
-  // The anchor in p's frame: its tangent coordinates and its height over p's plane.
-  const Vec3 to_anchor = anchor != nullptr ? Vec3(*anchor - p) : Vec3::Zero();
-  const double at[2] = {to_anchor.dot(t1), to_anchor.dot(t2)};
   std::size_t count = m;
   if (params.curvature_reach > 0.0 && m > static_cast<std::size_t>(params.min_k) + 1) {
     // A pilot quadric over the nearest min_k neighbours gives the largest principal
@@ -224,49 +234,110 @@ namespace {
     if (fit_height<2>(params, pilot, s, pilot_height, second)) {
       const double mean = 0.5 * (second[0] + second[2]);
       const double diff = 0.5 * (second[0] - second[2]);
-      const double kappa = std::abs(mean) + std::sqrt(diff * diff + second[1] * second[1]);
-      // On a surface that turns by more than placement_turn between p and the anchor, the
-      // fit's height at the anchor strays from the surface more than at p (measured on the
-      // bunny and the torus): the anchor is not placed, p is projected as without one.
-      if (anchor != nullptr && kappa * std::hypot(at[0], at[1]) > params.placement_turn) anchor = nullptr;
-      const double radius = params.curvature_reach / std::max(kappa, 1e-300);
+      fit.kappa = std::abs(mean) + std::sqrt(diff * diff + second[1] * second[1]);
+      const double radius = params.curvature_reach / std::max(fit.kappa, 1e-300);
       count = pilot;
       while (count < m && s.u[count] * s.u[count] + s.v[count] * s.v[count] + s.h[count] * s.h[count] <= radius * radius)
         ++count;
     }
     std::copy(s.start_weights.begin(), s.start_weights.end(), s.weights.begin());
   }
+  double scale = 0.0;
+  const bool fitted =
+      params.degree == 3
+          ? fit_height<3>(params, count, s, fit.height, nullptr, &scale, fit.coefficients.data(), &fit.inv_reach)
+          : fit_height<2>(params, count, s, fit.height, nullptr, &scale, fit.coefficients.data(), &fit.inv_reach);
+  if (!fitted) return fit;
+  fit.status = QuadricFit::Status::Fitted;
   // A fit that puts p farther off than the Tukey bound of its own residuals extrapolates (a
   // neighbourhood to one side, a hole's border): the move is clamped to that bound.
-  double height = 0.0, scale = 0.0;
-  if (anchor == nullptr) {
-    const bool fitted = params.degree == 3 ? fit_height<3>(params, count, s, height, nullptr, &scale)
-                                           : fit_height<2>(params, count, s, height, nullptr, &scale);
-    if (!fitted) return p;
-    const double bound = params.inlier_bound * std::max(scale, 1e-12 * reach_of(s, count));
-    return p + std::clamp(height, -bound, bound) * n;
-  }
-  // The anchor in p's frame: it moves along n only, onto the fit's height at its own tangent
-  // coordinates. The fit at p is clamped as above; the height at the anchor is shifted by the
-  // same amount. An anchor outside the fit's reach (which the fit would extrapolate to) goes
-  // onto the plane at the clamped height of p instead.
-  const double anchor_height = to_anchor.dot(n);
-  double height_at = 0.0;
-  const bool fitted = params.degree == 3 ? fit_height<3>(params, count, s, height, nullptr, &scale, at, &height_at)
-                                         : fit_height<2>(params, count, s, height, nullptr, &scale, at, &height_at);
-  if (!fitted) return *anchor - anchor_height * n;
-  const double reach = reach_of(s, count);
-  const double bound = params.inlier_bound * std::max(scale, 1e-12 * reach);
-  const double clamped = std::clamp(height, -bound, bound);
+  fit.reach = reach_of(s, count);
+  const double bound = params.inlier_bound * std::max(scale, 1e-12 * fit.reach);
+  fit.clamped = std::clamp(fit.height, -bound, bound);
+  return fit;
+}
+
+// The fit's height at `x` (its tangent coordinates in the fit's frame `at`, its height over
+// the fit's plane `x_height`), as a move of x along the fit's normal: the fit near its origin
+// with x's position along it. The fit at the origin is clamped (fit_one); the height at x is
+// shifted by the same amount. An x outside the fit's reach (which the fit would extrapolate
+// to) goes onto the plane at the clamped height instead.
+template <int Degree>
+[[gnu::always_inline]] inline double move_onto_fit(const QuadricFit& fit, const double at[2], double x_height,
+                                                   const QuadricProjectionParams& params) {
+  using Vec = Eigen::Matrix<double, kTerms<Degree>, 1>;
+  const double height_at = monomials<Degree>(at[0] * fit.inv_reach, at[1] * fit.inv_reach)
+                               .dot(Eigen::Map<const Vec>(fit.coefficients.data()));
   // The fit keeps only neighbours whose normals lie within normal_angle of p's: its surface
   // rises from p's plane by at most tan(normal_angle) per unit along it. A fit that rises
-  // faster at the anchor extrapolates (a neighbourhood to one side): the height is bounded by
-  // that slope.
+  // faster at x extrapolates (a neighbourhood to one side): the height is bounded by that
+  // slope.
   const double offset = std::sqrt(at[0] * at[0] + at[1] * at[1]);
   const double slope = std::tan(params.normal_angle * std::numbers::pi / 180.0);
-  const double target = std::clamp(offset <= reach ? height_at + (clamped - height) : clamped,
-                                   clamped - slope * offset, clamped + slope * offset);
-  return *anchor + (target - anchor_height) * n;
+  const double target = std::clamp(offset <= fit.reach ? height_at + (fit.clamped - fit.height) : fit.clamped,
+                                   fit.clamped - slope * offset, fit.clamped + slope * offset);
+  return target - x_height;
+}
+
+// x's tangent coordinates and height in the fit's frame.
+[[gnu::always_inline]] inline double frame_coordinates(const QuadricFit& fit, const Vec3& x, double at[2]) {
+  const Vec3 t1 = fit.normal.unitOrthogonal();
+  const Vec3 t2 = fit.normal.cross(t1);
+  const Vec3 d = x - fit.origin;
+  at[0] = d.dot(t1);
+  at[1] = d.dot(t2);
+  return d.dot(fit.normal);
+}
+
+// p moved along the normal of its robust plane onto its fit; with an anchor, the anchor moved
+// along that normal onto the same fit instead (placed_on_quadric).
+[[gnu::always_inline]] inline Vec3 place_on_own_fit(const QuadricFit& fit, const Vec3* anchor,
+                                                    const QuadricProjectionParams& params) {
+  const Vec3& p = fit.origin;
+  if (fit.status == QuadricFit::Status::None) return p;
+  const Vec3& n = fit.normal;
+  double at[2] = {0.0, 0.0};
+  const double anchor_height = anchor != nullptr ? frame_coordinates(fit, *anchor, at) : 0.0;
+  // On a surface that turns by more than placement_turn between p and the anchor, the fit's
+  // height at the anchor strays from the surface more than at p (measured on the bunny and
+  // the torus): the anchor is not placed, p is projected as without one.
+  if (anchor != nullptr && fit.kappa >= 0.0 && fit.kappa * std::hypot(at[0], at[1]) > params.placement_turn)
+    anchor = nullptr;
+  if (anchor == nullptr) return fit.status == QuadricFit::Status::Fitted ? Vec3(p + fit.clamped * n) : p;
+  // The anchor in p's frame: it moves along n only, onto the fit's height at its own tangent
+  // coordinates. Where the fit fails, the anchor goes onto p's plane.
+  if (fit.status != QuadricFit::Status::Fitted) return *anchor - anchor_height * n;
+  const double move = params.degree == 3 ? move_onto_fit<3>(fit, at, anchor_height, params)
+                                         : move_onto_fit<2>(fit, at, anchor_height, params);
+  return *anchor + move * n;
+}
+
+// A point q (at `p`, with `anchor` or none) moved along the normal of a neighbour's fit onto
+// it (QuadricProjectionParams::share_stride): the anchor where the surface turns by at most
+// placement_turn between it and p (as on q's own fit), else p; false where the surface turns
+// by more than share_turn between the fit's origin and that point (q then fits its own).
+[[gnu::always_inline]] inline bool place_on_shared_fit(const QuadricFit& fit, const Vec3& p, const Vec3* anchor,
+                                                       const QuadricProjectionParams& params, Vec3& out) {
+  assert(fit.status == QuadricFit::Status::Fitted && fit.kappa >= 0.0);
+  const Vec3& n = fit.normal;
+  if (anchor != nullptr) {
+    const Vec3 along = (*anchor - p) - (*anchor - p).dot(n) * n;
+    if (fit.kappa * along.norm() > params.placement_turn) anchor = nullptr;
+  }
+  const Vec3& x = anchor != nullptr ? *anchor : p;
+  double at[2];
+  const double x_height = frame_coordinates(fit, x, at);
+  if (fit.kappa * std::hypot(at[0], at[1]) > params.share_turn) return false;
+  const double move = params.degree == 3 ? move_onto_fit<3>(fit, at, x_height, params)
+                                         : move_onto_fit<2>(fit, at, x_height, params);
+  out = x + move * n;
+  return true;
+}
+
+[[gnu::always_inline]] inline Vec3 project_one(const Vec3& p, const Vec3* anchor, std::span<const Index> neighbors,
+                                               std::span<const Vec3> points, const QuadricProjectionParams& params,
+                                               Scratch& s) {
+  return place_on_own_fit(fit_one(p, neighbors, points, params, s), anchor, params);
 }
 
 }  // namespace
@@ -328,7 +399,8 @@ void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> nor
 
 namespace {
 
-// The inputs of project_rows_to_quadrics (see there).
+// The inputs of project_rows_to_quadrics and fit_rows_to_quadrics (see there): `out` or
+// `fits` receives the rows' results.
 struct RowsJob {
   std::span<const Vec3> points, normals;
   NeighborhoodsView rows;
@@ -336,14 +408,42 @@ struct RowsJob {
   const QuadricProjectionParams& params;
   std::span<Vec3> out;
   std::span<const Vec3> anchors;
+  const SharedFits* shared;
+  std::span<QuadricFit> fits;
+  std::span<char> left;
   double min_cos;
 };
+
+// The neighbours of row r on point i's face (normal within the angle of its own) into `kept`.
+[[gnu::always_inline]] inline void same_face(const RowsJob& job, std::size_t r, const Vec3& ni, std::vector<Index>& kept) {
+  kept.clear();
+  for (const Index j : job.rows.of(r))
+    if (std::abs(ni.dot(job.normals[j])) >= job.min_cos) kept.push_back(j);
+}
+
+// Row r's point moved onto the fit of the nearest seed on its face among its first
+// normal_neighbors (place_on_shared_fit); false where there is none or it does not reach.
+[[gnu::always_inline]] inline bool share_fit(const RowsJob& job, std::size_t r, std::size_t i, const Vec3* anchor) {
+  const std::span<const Index> row = job.rows.of(r);
+  const std::size_t candidates = std::min(row.size(), static_cast<std::size_t>(job.params.normal_neighbors));
+  const Vec3& ni = job.normals[i];
+  for (std::size_t c = 0; c < candidates; ++c) {
+    const Index j = row[c];
+    const Index f = job.shared->fit_of[j];
+    if (f == SharedFits::kNoFit || !(std::abs(ni.dot(job.normals[j])) >= job.min_cos)) continue;
+    const QuadricFit& fit = job.shared->fits[f];
+    if (fit.status != QuadricFit::Status::Fitted || fit.kappa < 0.0) return false;
+    return place_on_shared_fit(fit, job.points[i], anchor, job.params, job.out[r]);
+  }
+  return false;
+}
 
 // Rows [begin, end) of project_rows_to_quadrics.
 [[gnu::always_inline]] inline void project_rows(const RowsJob& job, std::size_t begin, std::size_t end) {
   Scratch s;
   std::vector<Index> kept;
   const std::size_t min_k = static_cast<std::size_t>(job.params.min_k);
+  const bool sharing = job.shared != nullptr;
   for (std::size_t r = begin; r < end; ++r) {
     const std::size_t i = job.queries.empty() ? r : job.queries[r];
     const Vec3& ni = job.normals[i];
@@ -351,21 +451,50 @@ struct RowsJob {
       job.out[r] = job.points[i];
       continue;
     }
-    kept.clear();
-    // With an anchor: whether a neighbour among the nearest min_k lies on another face (its
-    // normal beyond the angle), i.e. the point is near a crease.
+    // Whether a neighbour among the nearest min_k lies on another face (its normal beyond the
+    // angle), i.e. the point is near a crease.
     bool near_crease = false;
-    std::size_t seen = 0;
-    for (const Index j : job.rows.of(r)) {
-      const bool same_face = std::abs(ni.dot(job.normals[j])) >= job.min_cos;
-      if (same_face) kept.push_back(j);
-      if (!job.anchors.empty() && seen++ < min_k && !same_face) near_crease = true;
+    if (!job.anchors.empty() || sharing) {
+      const std::span<const Index> row = job.rows.of(r);
+      const std::size_t nearest = std::min(row.size(), min_k);
+      for (std::size_t c = 0; c < nearest && !near_crease; ++c)
+        near_crease = !(std::abs(ni.dot(job.normals[row[c]])) >= job.min_cos);
     }
     // Near a crease the anchor's position along the surface may lie past it, off both faces
     // (the input's noise along the surface): there the point goes where the fit puts it, as
     // in the free finish; elsewhere the anchor is placed along the normal.
     const Vec3* anchor = job.anchors.empty() || near_crease ? nullptr : &job.anchors[r];
+    if (sharing) {
+      const Index own = job.shared->fit_of[i];
+      if (own != SharedFits::kNoFit) {
+        job.out[r] = place_on_own_fit(job.shared->fits[own], anchor, job.params);
+        continue;
+      }
+      if (job.params.share_stride > 1 && share_fit(job, r, i, anchor)) continue;
+      if (!job.left.empty()) {
+        job.left[r] = 1;
+        continue;
+      }
+    }
+    same_face(job, r, ni, kept);
     job.out[r] = project_one(job.points[i], anchor, kept, job.points, job.params, s);
+  }
+}
+
+// Rows [begin, end) of fit_rows_to_quadrics.
+[[gnu::always_inline]] inline void fit_rows(const RowsJob& job, std::size_t begin, std::size_t end) {
+  Scratch s;
+  std::vector<Index> kept;
+  for (std::size_t r = begin; r < end; ++r) {
+    const std::size_t i = job.queries.empty() ? r : job.queries[r];
+    const Vec3& ni = job.normals[i];
+    if (ni.isZero()) {
+      job.fits[r] = QuadricFit{};
+      job.fits[r].origin = job.points[i];
+      continue;
+    }
+    same_face(job, r, ni, kept);
+    job.fits[r] = fit_one(job.points[i], kept, job.points, job.params, s);
   }
 }
 
@@ -373,35 +502,70 @@ struct RowsJob {
 // equations' sums, each summed in the same order: the same bits). What it calls without
 // inlining (the robust plane, the LDLT solve) is the baseline's.
 void project_rows_plain(const RowsJob& job, std::size_t begin, std::size_t end) { project_rows(job, begin, end); }
+void fit_rows_plain(const RowsJob& job, std::size_t begin, std::size_t end) { fit_rows(job, begin, end); }
 
 #if (defined(__x86_64__) || defined(__i386__)) && (defined(__GNUC__) || defined(__clang__))
 #define POINTFAIR_HAS_AVX2_FINISH 1
 __attribute__((target("avx2"))) void project_rows_avx2(const RowsJob& job, std::size_t begin, std::size_t end) {
   project_rows(job, begin, end);
 }
+__attribute__((target("avx2"))) void fit_rows_avx2(const RowsJob& job, std::size_t begin, std::size_t end) {
+  fit_rows(job, begin, end);
+}
 #else
 #define POINTFAIR_HAS_AVX2_FINISH 0
+void project_rows_avx2(const RowsJob& job, std::size_t begin, std::size_t end) { project_rows_plain(job, begin, end); }
+void fit_rows_avx2(const RowsJob& job, std::size_t begin, std::size_t end) { fit_rows_plain(job, begin, end); }
 #endif
+
+using RowsBody = void (*)(const RowsJob&, std::size_t, std::size_t);
+
+// Rows [0, n) of `job` in parallel ranges, each by the AVX2 build of the body where the
+// machine has it (the default step kernel's choice), else by the baseline's.
+void run_rows(const RowsJob& job, std::size_t n, RowsBody plain, RowsBody avx2) {
+  const bool use_avx2 = POINTFAIR_HAS_AVX2_FINISH && default_step_kernel() == StepKernel::Avx2;
+  parallel_for(n, [&](std::size_t begin, std::size_t end) { (use_avx2 ? avx2 : plain)(job, begin, end); }, 256);
+}
 
 }  // namespace
 
+bool is_share_seed(std::uint64_t original, const QuadricProjectionParams& params) {
+  if (params.share_stride <= 1) return true;
+  // splitmix64's finaliser: neighbouring indices (a scan's order) get unrelated draws.
+  std::uint64_t z = original + 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  z ^= z >> 31;
+  return z % static_cast<std::uint64_t>(params.share_stride) == 0;
+}
+
 void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, NeighborhoodsView rows,
                               std::span<const Index> queries, const QuadricProjectionParams& params,
-                              std::span<Vec3> out, std::span<const Vec3> anchors) {
+                              std::span<Vec3> out, std::span<const Vec3> anchors, const SharedFits* shared,
+                              std::span<char> left_for_own_fit) {
   params.validate();
   const std::size_t n = rows.size();
   require(normals.size() == points.size() && out.size() == n && (queries.empty() || queries.size() == n) &&
-              (anchors.empty() || anchors.size() == n),
-          "project_rows_to_quadrics: a normal per point, a row, an output and an anchor per query");
-  const RowsJob job{points, normals, rows, queries, params, out, anchors,
+              (anchors.empty() || anchors.size() == n) &&
+              (shared == nullptr || shared->fit_of.size() == points.size()) &&
+              (left_for_own_fit.empty() || (shared != nullptr && left_for_own_fit.size() == n)),
+          "project_rows_to_quadrics: a normal (and a shared fit's index) per point, a row, an output, an anchor and "
+          "a flag per query");
+  const RowsJob job{points, normals, rows, queries, params, out, anchors, shared, {}, left_for_own_fit,
                     std::cos(params.normal_angle * std::numbers::pi / 180.0)};
-  const bool avx2 = default_step_kernel() == StepKernel::Avx2;
-  parallel_for(n, [&](std::size_t begin, std::size_t end) {
-#if POINTFAIR_HAS_AVX2_FINISH
-    if (avx2) return project_rows_avx2(job, begin, end);
-#endif
-    project_rows_plain(job, begin, end);
-  }, 256);
+  run_rows(job, n, project_rows_plain, project_rows_avx2);
+}
+
+void fit_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, NeighborhoodsView rows,
+                          std::span<const Index> queries, const QuadricProjectionParams& params,
+                          std::span<QuadricFit> out) {
+  params.validate();
+  const std::size_t n = rows.size();
+  require(normals.size() == points.size() && out.size() == n && (queries.empty() || queries.size() == n),
+          "fit_rows_to_quadrics: a normal per point, a row and an output per query");
+  const RowsJob job{points, normals, rows, queries, params, {}, {}, nullptr, out, {},
+                    std::cos(params.normal_angle * std::numbers::pi / 180.0)};
+  run_rows(job, n, fit_rows_plain, fit_rows_avx2);
 }
 
 Neighborhoods quadric_neighborhoods(std::span<const Vec3> points, const QuadricProjectionParams& params) {
@@ -432,9 +596,24 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
   const std::vector<Index> order = spatial_order(points);
   const std::vector<Index> row_of = inverse_permutation(order);
   std::vector<Vec3> stored = gather(points, order), out(n), block_anchors;
-  std::vector<Index> queries, stored_queries;
-  Neighborhoods rows;
+  std::vector<Index> queries, stored_queries, own_queries;
+  std::vector<std::size_t> own_rows;
+  std::vector<char> left;
+  std::vector<Vec3> own_out, own_anchors;
+  Neighborhoods rows, own_lists;
   std::vector<Vec3> normals(n);
+  // Fit sharing: the seeds' stored rows, and their fits (the same seeds every pass).
+  const bool sharing = params.share_stride > 1;
+  SharedFits shared;
+  std::vector<Index> seeds;
+  if (sharing) {
+    shared.fit_of.assign(n, SharedFits::kNoFit);
+    for (std::size_t s = 0; s < n; ++s)
+      if (is_share_seed(order[s], params)) {
+        shared.fit_of[s] = static_cast<Index>(seeds.size());
+        seeds.push_back(static_cast<Index>(s));
+      }
+  }
   for (int pass = 0; pass < params.passes; ++pass) {
     const bool last = pass + 1 == params.passes;
     // One grid a pass for every block's queries (a grid a block cost a sort of the whole
@@ -451,26 +630,81 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
       block_queries(first, count, near_k);
       normals_of_rows(stored, rows, first, params, std::span<Vec3>(normals).subspan(first, count));
     }
+    // Progress counts the seeds' fits and every point's placement, over all passes.
+    const std::size_t per_pass = n + (sharing ? seeds.size() : 0), total = per_pass * static_cast<std::size_t>(params.passes);
+    std::size_t done = static_cast<std::size_t>(pass) * per_pass;
+    const auto report = [&](std::size_t more) {
+      done += more;
+      if (progress) progress(done, total);
+    };
+    if (sharing) {
+      // The seeds' fits first, in parts between progress calls: every point's may share one.
+      shared.fits.resize(seeds.size());
+      for (std::size_t first = 0; first < seeds.size(); first += kQuadricBlock) {
+        const std::size_t count = std::min(kQuadricBlock, seeds.size() - first);
+        queries.resize(count);
+        for (std::size_t r = 0; r < count; ++r) queries[r] = order[seeds[first + r]];
+        grid_neighborhoods(grid, queries, params.k, inf, rows);
+        relabel_neighborhoods_in_place(rows, row_of);
+        for (std::size_t part = 0; part < count; part += kQuadricProgressBlock) {
+          const std::size_t size = std::min(kQuadricProgressBlock, count - part);
+          fit_rows_to_quadrics(stored, normals, NeighborhoodsView(rows).rows(part, size),
+                               std::span<const Index>(seeds).subspan(first + part, size), params,
+                               std::span<QuadricFit>(shared.fits).subspan(first + part, size));
+          report(size);
+        }
+      }
+    }
+    // With sharing, a point reads only its nearest (the crease test's and the seeds'): the
+    // block's lists are that short, and the points left to fit their own get k-long ones
+    // after (a prefix of the canonical order is the canonical order of fewer neighbours).
+    const int placing_k = sharing ? std::min(params.k, std::max(params.min_k, params.normal_neighbors)) : params.k;
     for (std::size_t first = 0; first < n; first += kQuadricBlock) {
       const std::size_t count = std::min(kQuadricBlock, n - first);
-      block_queries(first, count, params.k);
+      block_queries(first, count, placing_k);
       stored_queries.resize(count);  // row r of the block: stored point first + r
       std::iota(stored_queries.begin(), stored_queries.end(), static_cast<Index>(first));
-      if (last && !anchors.empty()) {
+      const bool placing = last && !anchors.empty();
+      if (placing) {
         block_anchors.resize(count);
         for (std::size_t r = 0; r < count; ++r) block_anchors[r] = anchors[queries[r]];
       }
+      left.assign(sharing ? count : 0, 0);
       // The block's rows in parts between progress calls (each part its own rows: the same
       // bits as the whole block at once).
       for (std::size_t part = 0; part < count; part += kQuadricProgressBlock) {
         const std::size_t size = std::min(kQuadricProgressBlock, count - part);
         const NeighborhoodsView part_rows = NeighborhoodsView(rows).rows(part, size);
         project_rows_to_quadrics(
-            stored, normals, part_rows, std::span<const Index>(stored_queries).subspan(part, size), params, std::span<Vec3>(out).subspan(first + part, size),
-            last && !anchors.empty() ? std::span<const Vec3>(block_anchors).subspan(part, size)
-                                     : std::span<const Vec3>{});
-        if (progress)
-          progress(static_cast<std::size_t>(pass) * n + first + part + size, n * static_cast<std::size_t>(params.passes));
+            stored, normals, part_rows, std::span<const Index>(stored_queries).subspan(part, size), params,
+            std::span<Vec3>(out).subspan(first + part, size),
+            placing ? std::span<const Vec3>(block_anchors).subspan(part, size) : std::span<const Vec3>{},
+            sharing ? &shared : nullptr, sharing ? std::span<char>(left).subspan(part, size) : std::span<char>{});
+        if (!sharing) report(size);
+      }
+      if (!sharing) continue;
+      // The points left: their own fits over k-long lists.
+      own_rows.clear();
+      for (std::size_t r = 0; r < count; ++r)
+        if (left[r]) own_rows.push_back(r);
+      report(count - own_rows.size());
+      for (std::size_t part = 0; part < own_rows.size(); part += kQuadricProgressBlock) {
+        const std::size_t size = std::min(kQuadricProgressBlock, own_rows.size() - part);
+        queries.resize(size);
+        own_queries.resize(size);
+        own_anchors.resize(placing ? size : 0);
+        for (std::size_t r = 0; r < size; ++r) {
+          const std::size_t row = own_rows[part + r];
+          own_queries[r] = static_cast<Index>(first + row);
+          queries[r] = order[first + row];
+          if (placing) own_anchors[r] = block_anchors[row];
+        }
+        grid_neighborhoods(grid, queries, params.k, inf, own_lists);
+        relabel_neighborhoods_in_place(own_lists, row_of);
+        own_out.resize(size);
+        project_rows_to_quadrics(stored, normals, own_lists, own_queries, params, own_out, own_anchors);
+        for (std::size_t r = 0; r < size; ++r) out[first + own_rows[part + r]] = own_out[r];
+        report(size);
       }
     }
     // The caller's order for the next pass's lists (and the result); `out` is already the

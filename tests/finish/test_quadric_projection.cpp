@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -229,6 +230,7 @@ TEST(QuadricProjection, BlockedListsGiveTheWholeCloudsBits) {
   add_noise(p, 0.003, 22);
   QuadricProjectionParams params;
   params.k = 24;
+  params.share_stride = 1;  // the plain pass fits every point's own
   params.min_k = 12;
   params.passes = 1;
   const Neighborhoods nb = quadric_neighborhoods(p, params);
@@ -248,6 +250,7 @@ TEST(QuadricProjection, PassesWithAnchorsGiveThePlainPassesBits) {
   add_noise(anchors, 0.001, 25);
   QuadricProjectionParams params;
   params.k = 24;
+  params.share_stride = 1;  // the plain pass fits every point's own
   params.min_k = 12;
   params.passes = 2;
   std::vector<Vec3> plain = p;
@@ -261,6 +264,81 @@ TEST(QuadricProjection, PassesWithAnchorsGiveThePlainPassesBits) {
   }
   finish_with_quadrics(p, params, anchors);
   EXPECT_EQ(p, plain);
+}
+
+// Fit sharing against a plain loop of the one-point functions: a seed (is_share_seed) is
+// projected onto its own fit; another point is placed (placed_on_quadric, the point as its
+// own anchor) on the fit of the nearest seed on its face among its first normal_neighbors,
+// or projected onto its own fit where there is none. The turn bounds are opened so that the
+// placement is the sharing's, to the bit.
+TEST(QuadricProjection, SharedFitsArePlacementsOnTheNearestSeedsFit) {
+  std::vector<Vec3> p = sample_sphere(4000, 1.0, 31).points;
+  add_noise(p, 0.005, 32);
+  QuadricProjectionParams params;
+  params.k = 40;
+  params.min_k = 12;
+  params.passes = 1;
+  params.share_stride = 4;
+  params.share_turn = params.placement_turn = 10.0;
+  const Neighborhoods nb = quadric_neighborhoods(p, params);
+  const std::vector<Vec3> normals = neighbourhood_normals(p, nb, params);
+  const double min_cos = std::cos(params.normal_angle * M_PI / 180.0);
+  const auto same_face = [&](std::size_t i) {
+    std::vector<Index> kept;
+    for (const Index j : nb.of(i))
+      if (std::abs(normals[i].dot(normals[j])) >= min_cos) kept.push_back(j);
+    return kept;
+  };
+  std::vector<Vec3> shared = p;
+  finish_with_quadrics(shared, params);
+  std::size_t seeds = 0, sharing = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    ASSERT_FALSE(normals[i].isZero()) << i;
+    std::optional<Index> seed;
+    if (is_share_seed(i, params)) {
+      seed = static_cast<Index>(i);
+      ++seeds;
+    } else {
+      for (const Index j : nb.of(i).first(static_cast<std::size_t>(params.normal_neighbors)))
+        if (is_share_seed(j, params) && std::abs(normals[i].dot(normals[j])) >= min_cos) {
+          seed = j;
+          ++sharing;
+          break;
+        }
+    }
+    const Vec3 expected = !seed ? project_to_quadric(p[i], same_face(i), p, params)
+                          : *seed == i ? project_to_quadric(p[i], same_face(i), p, params)
+                                       : placed_on_quadric(p[i], p[*seed], same_face(*seed), p, params);
+    ASSERT_EQ(shared[i], expected) << "point " << i;
+  }
+  // About one point in four is a seed, and nearly every other one shares a fit.
+  EXPECT_GT(seeds, p.size() / 5);
+  EXPECT_LT(seeds, p.size() * 3 / 10);
+  EXPECT_GT(sharing, (p.size() - seeds) * 9 / 10);
+}
+
+// Where the surface turns more than share_turn between a seed and a point, the point fits
+// its own: with no turn allowed on a sphere every point does, as without sharing. At the
+// defaults a sphere's shared finish removes the noise as the plain one does.
+TEST(QuadricProjection, SharingStopsWhereTheSurfaceTurns) {
+  std::vector<Vec3> p = sample_sphere(4000, 1.0, 33).points;
+  add_noise(p, 0.01, 34);
+  QuadricProjectionParams params;
+  params.k = 60;
+  params.share_stride = 1;
+  std::vector<Vec3> own = p;
+  finish_with_quadrics(own, params);
+  params.share_stride = 4;
+  params.share_turn = 0.0;
+  std::vector<Vec3> unturned = p;
+  finish_with_quadrics(unturned, params);
+  EXPECT_EQ(unturned, own);
+  params.share_turn = QuadricProjectionParams{}.share_turn;
+  std::vector<Vec3> shared = p;
+  finish_with_quadrics(shared, params);
+  EXPECT_NE(shared, own);
+  EXPECT_LT(rms_radial_error(shared), 1.1 * rms_radial_error(own));
+  EXPECT_LT(rms_radial_error(shared), 0.5 * rms_radial_error(p));
 }
 
 TEST(QuadricProjection, TooFewPointsStayPut) {
@@ -286,6 +364,9 @@ TEST(QuadricProjection, RefusesBadParameters) {
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.passes = 0; })), ParamError);
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.curvature_reach = -1.0; })), ParamError);
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.min_k = 9; })), ParamError);
+  EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.share_stride = 0; })), ParamError);
+  EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.share_stride = 65; })), ParamError);
+  EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.share_turn = -0.1; })), ParamError);
 }
 
 }  // namespace

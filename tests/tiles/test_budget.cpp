@@ -94,7 +94,7 @@ TEST_F(BudgetTest, ALargerBudgetNeverNeedsMore) {
       if (first_taken == 0) first_taken = budget;
     } catch (const BudgetError& e) {
       EXPECT_EQ(first_taken, 0u) << "refused after " << first_taken << " was taken: " << e.what();
-      EXPECT_GT(e.needed, budget);
+      EXPECT_GT(e.needed, budget) << e.what();
       ++refused;
       if (refused > 2) continue;  // the named budgets are alike from here
       const std::uint64_t named = budget_to_name(e.needed);

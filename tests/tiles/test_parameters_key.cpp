@@ -45,6 +45,7 @@ std::string reference_finish_key(const QuadricProjectionParams& q) {
     << " quadric_min_k=" << q.min_k << " quadric_frame_seed=" << q.frame.seed_neighbors
     << " quadric_frame_iterations=" << q.frame.iterations << " quadric_frame_bound=" << q.frame.inlier_bound
     << " quadric_placement_turn=" << q.placement_turn;
+  if (q.share_stride != 1) s << " quadric_share=" << q.share_stride << " quadric_share_turn=" << q.share_turn;
   return s.str();
 }
 
@@ -73,8 +74,12 @@ TEST(ParametersKey, TheTablesWriteTheLineWrittenByHand) {
   lambda_rule.flow.features.scale = FeatureScale::Lambda;
   for (const SmoothParams& p : {SmoothParams{}, paper_smooth_params(SmoothParams{}), changed, fixed_threshold, lambda_rule}) {
     EXPECT_EQ(tiles::detail::parameters_key(p), reference_parameters_key(p));
-    const QuadricProjectionParams q = p.finish.value_or(QuadricProjectionParams{});
+    QuadricProjectionParams q = p.finish.value_or(QuadricProjectionParams{});
     EXPECT_EQ(tiles::detail::finish_key(q), reference_finish_key(q));
+    // Runs from before fit sharing (every point its own fit) name none of it.
+    q.share_stride = 1;
+    EXPECT_EQ(tiles::detail::finish_key(q), reference_finish_key(q));
+    EXPECT_EQ(tiles::detail::finish_key(q).find("share"), std::string::npos);
   }
 }
 

@@ -73,7 +73,7 @@ int run_smooth(const Args& args) {
     step_label = "smooth: step (stops once the noise measure lambda falls to " + format_number(params.stop_lambda_ratio) +
                  " of its start or levels off)";
   Progress steps_progress(step_label, !output.quiet);
-  Progress finish_progress("smooth: finish (quadric fits, points x passes)", !output.quiet);
+  Progress finish_progress("smooth: finish (quadric fits and placements, all passes)", !output.quiet);
   PointFileSmooth run;
   run.input = input;
   run.output = output_path;

@@ -298,6 +298,16 @@ void add_finish_options(ArgumentParser& p, SmoothParams& s) {
           "Neighbours of the pilot quadric of --quadric-curvature-reach (>= 10). " +
               finish_default("quadric_min_k") + ".",
           [finish](std::string_view v) { finish().min_k = parse_int(v, "--quadric-min-k"); });
+  p.value("quadric-share", "N",
+          "Fit sharing: 1 point in N (drawn by its index in the input) fits its own cubic; the "
+          "others move onto the fit of the nearest such point on their face "
+          "among their 16 nearest, where the surface turns by at most --quadric-share-turn "
+          "between them (1..64; 1: every point fits its own). " + finish_default("quadric_share") + ".",
+          [finish](std::string_view v) { finish().share_stride = parse_int(v, "--quadric-share"); });
+  p.value("quadric-share-turn", "RADIANS",
+          "Largest turn of the surface (curvature times distance) across which a fit is "
+          "shared (>= 0). " + finish_default("quadric_share_turn") + ".",
+          [finish](std::string_view v) { finish().share_turn = parse_double(v, "--quadric-share-turn"); });
   p.group(before);
 }
 

@@ -13,7 +13,7 @@ namespace pointfair {
 
 using QuadricParameter = Parameter<QuadricProjectionParams>;
 
-inline constexpr std::array<QuadricParameter, 13> kQuadricParameters{{
+inline constexpr std::array<QuadricParameter, 15> kQuadricParameters{{
     {"quadric_k", "k", "quadric_k", [](const QuadricProjectionParams& q) { return integer_value(q.k); }},
     {"quadric_normal_neighbors", "", "",
      [](const QuadricProjectionParams& q) { return integer_value(q.normal_neighbors); }},
@@ -33,11 +33,16 @@ inline constexpr std::array<QuadricParameter, 13> kQuadricParameters{{
      [](const QuadricProjectionParams& q) { return integer_value(q.frame.iterations); }},
     {"quadric_frame_bound", "", "", [](const QuadricProjectionParams& q) { return real_value(q.frame.inlier_bound); }},
     {"quadric_placement_turn", "", "", [](const QuadricProjectionParams& q) { return real_value(q.placement_turn); }},
+    // Named in the key only when on: runs started before fit sharing still resume.
+    {"quadric_share", "share", "quadric_share", [](const QuadricProjectionParams& q) { return integer_value(q.share_stride); },
+     [](const QuadricProjectionParams& q) { return q.share_stride != 1; }},
+    {"quadric_share_turn", "share_turn", "", [](const QuadricProjectionParams& q) { return real_value(q.share_turn); },
+     [](const QuadricProjectionParams& q) { return q.share_stride != 1; }},
 }};
 
 /// The --json block's order of the table's entries (by their --json names), after "enabled".
-inline constexpr std::array<std::string_view, 7> kQuadricJsonOrder{
-    "k", "angle_degrees", "degree", "passes", "iterations", "curvature_reach", "min_k"};
+inline constexpr std::array<std::string_view, 9> kQuadricJsonOrder{
+    "k", "angle_degrees", "degree", "passes", "iterations", "curvature_reach", "min_k", "share", "share_turn"};
 static_assert(covers<QuadricProjectionParams>(kQuadricParameters, &QuadricParameter::json, kQuadricJsonOrder));
 static_assert(names_only_entries<QuadricProjectionParams>(kQuadricParameters, &QuadricParameter::json,
                                                           kQuadricJsonOrder));

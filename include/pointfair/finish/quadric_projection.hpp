@@ -8,7 +8,11 @@
 // noise left that a wide second-order fit still removes. A plain wide fit bends across sharp
 // edges; the normal test keeps each fit on the point's own face. Measured on the sphere and
 // fandisk (README, Quality).
+#include <array>
 #include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <vector>
 #include <functional>
 #include <span>
 
@@ -55,6 +59,14 @@ struct QuadricProjectionParams {
   /// Passes over the cloud, each with neighbourhoods, normals and fits from the last one's
   /// result; 1..10.
   int passes = 2;
+  /// Fit sharing (beyond jet fitting): 1 in share_stride points (drawn by a hash of the point's
+  /// index in the input, whatever the tiling: is_share_seed) fits its own cubic, a seed; every
+  /// other point takes the fit of the nearest seed among its normal_neighbors nearest on its
+  /// own face, and moves along that fit's normal onto it, where the surface turns by at most
+  /// share_turn (radians, as placement_turn) between the seed and the point. The others fit
+  /// their own. 1: every point fits its own; 1..64.
+  int share_stride = 4;
+  double share_turn = 0.1;
   /// The plane the quadric's height is measured from, and each point's normal. Its three
   /// reweightings are kept: one (as the flow's) saved 6% of the quality benchmark's time and
   /// cost up to 1.5° of normal error near creases (docs/defaults.md).
@@ -62,6 +74,39 @@ struct QuadricProjectionParams {
 
   void validate() const;
 };
+
+/// One point's fit, kept for its neighbours to share (QuadricProjectionParams::share_stride).
+struct QuadricFit {
+  /// None: no plane (fewer than 6 points, or a degenerate plane): the point stays. Plane: a
+  /// plane but no height field. Fitted: both.
+  enum class Status : std::uint8_t { None, Plane, Fitted };
+  Vec3 origin = Vec3::Zero();  ///< the point fitted
+  Vec3 normal = Vec3::Zero();  ///< its robust plane's normal
+  double inv_reach = 0.0;      ///< the fit's tangent coordinates are in these units
+  double reach = 0.0;          ///< the farthest neighbour of the fit along the plane
+  double height = 0.0;         ///< the fit's height at the origin
+  double clamped = 0.0;        ///< that height clamped to the Tukey bound of the fit's residuals
+  double kappa = -1.0;         ///< the pilot quadric's largest curvature; < 0: none
+  std::array<double, 10> coefficients{};  ///< the height field's, in the order of its monomials
+  Status status = Status::None;
+};
+
+/// Whether the point with index `original` in the input is a seed of fit sharing.
+bool is_share_seed(std::uint64_t original, const QuadricProjectionParams& params);
+
+/// The seeds' fits that project_rows_to_quadrics shares: fit_of[i] is the index in `fits` of
+/// point i's fit, or kNoFit.
+struct SharedFits {
+  static constexpr Index kNoFit = std::numeric_limits<Index>::max();
+  std::vector<Index> fit_of;
+  std::vector<QuadricFit> fits;
+};
+
+/// The fit of point queries[r] over row r of `rows` (its neighbours of the same face, as in
+/// project_rows_to_quadrics) into out[r], for every row. Parallel.
+void fit_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, NeighborhoodsView rows,
+                          std::span<const Index> queries, const QuadricProjectionParams& params,
+                          std::span<QuadricFit> out);
 
 /// The projection of p onto the quadric fitted to p and `neighbors` (indices into `points`):
 /// p moved along the normal of its robust plane over them. p itself when they do not
@@ -95,9 +140,14 @@ void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> nor
 /// itself when `queries` is empty) with the neighbours of row r of `rows` (indices into
 /// `points`, as are `queries`); `normals` holds every point's. With `anchors` (one per row),
 /// out[r] is placed_on_quadric(anchors[r], ...) instead. Parallel.
+/// With `shared` (its fit_of one per point), a point whose fit is there uses it, and the others
+/// share a seed's where params.share_stride allows. With `left_for_own_fit` as well (a flag
+/// per row), a row whose point would fit its own is flagged and its output left as it was:
+/// such rows need only their first max(min_k, normal_neighbors) entries.
 void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, NeighborhoodsView rows,
                               std::span<const Index> queries, const QuadricProjectionParams& params,
-                              std::span<Vec3> out, std::span<const Vec3> anchors = {});
+                              std::span<Vec3> out, std::span<const Vec3> anchors = {},
+                              const SharedFits* shared = nullptr, std::span<char> left_for_own_fit = {});
 
 /// Points whose k-long lists finish_with_quadrics holds at once.
 inline constexpr std::size_t kQuadricBlock = std::size_t{1} << 16;
@@ -115,8 +165,8 @@ using FinishProgress = std::function<void(std::size_t, std::size_t)>;
 /// (placed_on_quadric) instead of projecting the point: the surface the flow and the finish
 /// found, with the anchors' positions along it. Throws ParamError on bad parameters.
 /// `progress` (may throw to stop; `points` then holds the last completed pass) is called
-/// after each block of at most kQuadricProgressBlock points with (points done over all
-/// passes, points x passes).
+/// after each block of at most kQuadricProgressBlock points with (work done over all passes,
+/// its total): the work of a pass is its points, and with fit sharing its seeds' fits too.
 void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionParams& params,
                           std::span<const Vec3> anchors = {}, const FinishProgress& progress = {});
 

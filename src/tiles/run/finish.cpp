@@ -17,12 +17,31 @@ std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const 
   lists.fits = build_neighborhoods(local.positions, local.queries, q.k, inf);
   std::vector<char> in_tile(n, 0), named(n, 0);
   for (const Index i : local.queries) in_tile[i] = 1;
-  for (std::size_t r = 0; r < lists.fits.size(); ++r) {
-    const std::span<const Index> row = lists.fits.of(r);
-    if (!all && (row.size() < kk || !((local.positions[row.back()] - local.positions[local.queries[r]]).norm() <
+  // Whether row r of `rows` (point i's) is the in-core one; its points named.
+  const auto check_row = [&](std::span<const Index> row, Index i) {
+    if (!all && (row.size() < kk || !((local.positions[row.back()] - local.positions[i]).norm() <
                                        halo * (1.0 - kHaloMargin))))
-      return std::nullopt;
+      return false;
     for (const Index j : row) named[j] = !in_tile[j];
+    return true;
+  };
+  for (std::size_t r = 0; r < lists.fits.size(); ++r)
+    if (!check_row(lists.fits.of(r), local.queries[r])) return std::nullopt;
+  if (q.share_stride > 1) {
+    // The seeds a tile point may share the fit of (among its first normal_neighbors), in
+    // ascending local order, each with its own fit's row.
+    std::vector<char> seed(n, 0);
+    const std::size_t candidates = static_cast<std::size_t>(q.normal_neighbors);
+    for (std::size_t r = 0; r < lists.fits.size(); ++r) {
+      const std::span<const Index> row = lists.fits.of(r);
+      for (const Index j : row.first(std::min(candidates, row.size()))) seed[j] = 1;
+      seed[local.queries[r]] = 1;
+    }
+    for (std::size_t i = 0; i < n; ++i)
+      if (seed[i] && is_share_seed(local.original[i], q)) lists.seed_queries.push_back(static_cast<Index>(i));
+    lists.seed_fits = build_neighborhoods(local.positions, lists.seed_queries, q.k, inf);
+    for (std::size_t r = 0; r < lists.seed_fits.size(); ++r)
+      if (!check_row(lists.seed_fits.of(r), lists.seed_queries[r])) return std::nullopt;
   }
   std::vector<Index> halo_queries;
   for (std::size_t i = 0; i < n; ++i)
@@ -59,20 +78,30 @@ std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const 
   };
   for (std::size_t r = 0; r < lists.fits.size(); ++r) put(lists.fits.of(r), local.queries[r]);
   for (std::size_t r = 0; r < near.size(); ++r) put(near.of(r), halo_queries[r]);
+  // A halo seed is named by a tile point's row: its normal's row is among the halo's.
+  assert(std::ranges::all_of(lists.seed_queries, [&](Index i) { return normal_rows.counts[i] > 0 || n == 1; }));
   lists.near_bytes = bytes(near.indices) + bytes(near.counts) + bytes(halo_queries) + 2 * n;
   return lists;
 }
 
 namespace {
 
-// An upper bound of what finish_part holds for `gathered` points of which `queries` are the
-// part's (fits of k, normals of m neighbours): the gathered set (40 bytes a point; its
-// entries, 48, while gathering), the cell grid (50), the normals' rows and those that built
-// the halo's (8m + 10), the normals (24); each query's row in the set (4), its fit (4k + 2),
-// its result and anchor (48).
-std::uint64_t finish_part_bytes(std::uint64_t gathered, std::uint64_t queries, int k, int m) {
+// What finish_part holds for `gathered` points of which `queries` are the part's (fits of k,
+// normals of m neighbours) and `seeds` have a shared fit: the gathered set (40 bytes a point;
+// its entries, 48, while gathering), the cell grid (50), the normals' rows and those that
+// built the halo's (8m + 10), the normals (24), the shared fits' index (4); each query's row
+// in the set (4), its fit (4k + 2), its result and anchor (48); each seed's row (4k + 6) and
+// fit.
+std::uint64_t finish_part_bytes(std::uint64_t gathered, std::uint64_t queries, std::uint64_t seeds, int k, int m) {
   const auto mm = static_cast<std::uint64_t>(m), kk = static_cast<std::uint64_t>(k);
-  return gathered * (40 + 50 + 8 * mm + 10 + 24) + queries * (4 + 4 * kk + 2 + 48);
+  return gathered * (40 + 50 + 8 * mm + 10 + 24 + 4) + queries * (4 + 4 * kk + 2 + 48) +
+         seeds * (4 * kk + 6 + sizeof(QuadricFit));
+}
+
+// The seeds finish_part plans for with `queries` points of a part: twice the share of seeds
+// (for the halo's and the hash's spread), every point without sharing.
+std::uint64_t planned_seeds(std::uint64_t queries, const QuadricProjectionParams& q) {
+  return q.share_stride > 1 ? 2 * queries / static_cast<std::uint64_t>(q.share_stride) + 1 : 0;
 }
 
 // The box of `points`' rows `rows`.
@@ -150,18 +179,24 @@ bool Run::finish_part(std::size_t t, const TilePart& part, const QuadricProjecti
   const std::uint64_t queries = whole ? tiles_.rows(t) : part.rows.size();
   const int m = std::min(q.k, q.normal_neighbors);
   const std::uint64_t fixed = persistent_bytes() + held;
-  const std::uint64_t per_point = finish_part_bytes(1, 0, q.k, m);
-  const std::uint64_t for_queries = finish_part_bytes(0, queries, q.k, m);
+  const std::uint64_t per_point = finish_part_bytes(1, 0, 0, q.k, m);
+  const std::uint64_t for_queries = finish_part_bytes(0, queries, planned_seeds(queries, q), q.k, m);
   needed = held + for_queries + queries * per_point;
   if (fixed + for_queries + queries * per_point > options_.memory_budget) return false;
   const std::uint64_t max_points = (options_.memory_budget - fixed - for_queries) / per_point;
-  needed = held + for_queries + (max_points + 1) * per_point;
+  // What a halo of more than max_points would need (named when none fits).
+  const std::uint64_t beyond = held + for_queries + (max_points + 1) * per_point;
+  needed = beyond;
   std::vector<Vec3> part_result, part_anchors;
   for (double halo = knn_first_halo(part.box, queries, q.k);; halo *= 2.0) {
     std::optional<LocalSet> local = gather_part(t, halo, part, max_points);
-    if (!local) return false;
+    if (!local) {
+      needed = beyond;
+      return false;
+    }
     std::optional<FinishLists> lists = finish_lists(part.box, halo, *local, q);
-    needed = held + finish_part_bytes(local->positions.size(), queries, q.k, m);
+    needed = held + finish_part_bytes(local->positions.size(), queries,
+                                      lists ? lists->seed_queries.size() : planned_seeds(queries, q), q.k, m);
     if (!lists) {
       account(needed);
       continue;
@@ -178,16 +213,28 @@ bool Run::finish_part(std::size_t t, const TilePart& part, const QuadricProjecti
     permute_in_place(local->positions, order);
     permute_neighborhoods_in_place(lists->normals, order, row_of);
     relabel_neighborhoods_in_place(lists->fits, row_of);
+    relabel_neighborhoods_in_place(lists->seed_fits, row_of);
     for (Index& i : local->queries) i = row_of[i];
+    for (Index& i : lists->seed_queries) i = row_of[i];
     const std::vector<Vec3> normals = neighbourhood_normals(local->positions, lists->normals, q);
+    // The seeds' fits, shared with their neighbours (as finish_with_quadrics's).
+    SharedFits shared;
+    if (q.share_stride > 1) {
+      shared.fit_of.assign(local->positions.size(), SharedFits::kNoFit);
+      shared.fits.resize(lists->seed_queries.size());
+      fit_rows_to_quadrics(local->positions, normals, lists->seed_fits, lists->seed_queries, q, shared.fits);
+      for (std::size_t r = 0; r < lists->seed_queries.size(); ++r) shared.fit_of[lists->seed_queries[r]] = static_cast<Index>(r);
+    }
+    const SharedFits* sharing = q.share_stride > 1 ? &shared : nullptr;
     if (whole) {
-      project_rows_to_quadrics(local->positions, normals, lists->fits, local->queries, q, result, anchors);
+      project_rows_to_quadrics(local->positions, normals, lists->fits, local->queries, q, result, anchors, sharing);
     } else {
       part_result.resize(queries);
       part_anchors.clear();
       if (!anchors.empty())
         for (const std::uint64_t r : part.rows) part_anchors.push_back(anchors[r]);
-      project_rows_to_quadrics(local->positions, normals, lists->fits, local->queries, q, part_result, part_anchors);
+      project_rows_to_quadrics(local->positions, normals, lists->fits, local->queries, q, part_result, part_anchors,
+                               sharing);
       for (std::size_t i = 0; i < part.rows.size(); ++i) result[part.rows[i]] = part_result[i];
     }
     largest_local_ = std::max<std::uint64_t>(largest_local_, local->positions.size());

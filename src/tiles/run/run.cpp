@@ -24,12 +24,14 @@ std::string parameters_key(const SmoothParams& p) {
   return s.str();
 }
 
-// Every parameter of the quadric finish (its table, in the table's order), for the same line.
+// Every parameter of the quadric finish (its table, in the table's order; some entries only
+// when they hold), for the same line.
 std::string finish_key(const QuadricProjectionParams& q) {
   std::ostringstream s;
   s.precision(17);
   const char* separator = "";
   for (const QuadricParameter& parameter : kQuadricParameters) {
+    if (parameter.key_when != nullptr && !parameter.key_when(q)) continue;
     s << separator;
     separator = " ";
     write_key(s, parameter.key, parameter.value(q));

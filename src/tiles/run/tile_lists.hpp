@@ -32,14 +32,19 @@ struct TilePart {
 };
 
 // The quadric finish's lists of one tile's gathered points (LocalSet, local indices): each
-// tile point's fit (its k nearest; row r: the tile's row r), and the rows every normal those
-// fits read is fitted to (a row for every gathered point, empty for those no fit reads).
+// tile point's fit (its k nearest; row r: the tile's row r), with fit sharing each seed's fit
+// that a tile point may share (the tile's seeds and the halo's among the tile points' nearest;
+// row r: point seed_queries[r]), and the rows every normal those fits read is fitted to (a
+// row for every gathered point, empty for those no fit reads).
 struct FinishLists {
   Neighborhoods fits;
+  Neighborhoods seed_fits;
+  std::vector<Index> seed_queries;
   Neighborhoods normals;
   std::uint64_t near_bytes = 0;  // what built the halo points' rows held
   std::uint64_t bytes() const {
-    return detail::bytes(fits.indices) + detail::bytes(fits.counts) + detail::bytes(normals.indices) +
+    return detail::bytes(fits.indices) + detail::bytes(fits.counts) + detail::bytes(seed_fits.indices) +
+           detail::bytes(seed_fits.counts) + detail::bytes(seed_queries) + detail::bytes(normals.indices) +
            detail::bytes(normals.counts) + near_bytes;
   }
 };
