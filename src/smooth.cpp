@@ -200,7 +200,8 @@ SmoothReport run_flow(std::vector<Vec3>& positions, const SmoothParams& params, 
       stats = euler_step(positions, neighborhoods, {}, params.flow, report.lambda, next);
     } else {
       stats = euler_step(positions, neighborhoods, {}, params.flow, report.lambda, updated);
-      compensate_shrinkage(positions, updated, neighborhoods, {}, params.shrink_compensation, next);
+      to_updates(positions, updated);
+      compensate_updates(positions, updated, neighborhoods, {}, params.shrink_compensation, next);
     }
     positions.swap(next);
     report.degenerate = stats.degenerate;

@@ -130,6 +130,27 @@ TEST(ShrinkCompensation, RowsSelectThePointsAndTheResultIsTheSameForAnyThreadCou
   EXPECT_TRUE(test::bitwise_equal(std::span<const Vec3>(one), std::span<const Vec3>(all)));
 }
 
+// The production path (to_updates, then compensate_updates: one array read a neighbour)
+// against compensate_shrinkage, which subtracts the positions itself: the same bits, for
+// every row and for rows of some points.
+TEST(ShrinkCompensation, UpdatesGiveThePositionsBits) {
+  const std::vector<Vec3> current = noisy_sphere(3000, 0.01, 6);
+  NeighborParams np;
+  np.k = 12;
+  const Neighborhoods nb = build_neighborhoods(current, np);
+  std::vector<Vec3> updated(current.size());
+  euler_step(current, nb, {}, FlowParams{}, 30.0, updated);
+  for (const double beta : {0.5, 1.0}) {
+    std::vector<Vec3> reference(current.size()), fast(current.size());
+    compensate_shrinkage(current, updated, nb, {}, beta, reference);
+    std::vector<Vec3> updates = updated;
+    to_updates(current, updates);
+    compensate_updates(current, updates, nb, {}, beta, fast);
+    EXPECT_TRUE(test::bitwise_equal(std::span<const Vec3>(fast), std::span<const Vec3>(reference))) << beta;
+    EXPECT_NE(fast, updated);  // compensated: not the plain step
+  }
+}
+
 TEST(ShrinkCompensation, RejectsBetaOutsideTheUnitInterval) {
   SmoothParams p;
   p.finish.reset();  // the flow alone

@@ -32,4 +32,15 @@ void compensate_shrinkage(std::span<const Vec3> current, std::span<const Vec3> u
                           NeighborhoodsView neighborhoods, std::span<const Index> rows,
                           double beta, std::span<Vec3> next);
 
+/// updated[i] -= current[i] for i < updated.size() (parallel): euler_step's output turned into
+/// the flow's own updates u_i, as compensate_shrinkage computes them.
+void to_updates(std::span<const Vec3> current, std::span<Vec3> updated);
+
+/// compensate_shrinkage from the updates (to_updates) rather than the updated positions: the
+/// same bits, with one array read a neighbour instead of two (the neighbours' positions were
+/// read only to subtract them).
+void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> updates,
+                        NeighborhoodsView neighborhoods, std::span<const Index> rows, double beta,
+                        std::span<Vec3> next);
+
 }  // namespace pointfair

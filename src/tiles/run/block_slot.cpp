@@ -43,11 +43,14 @@ void BlockSlot::compute(const FlowParams& flow, double lambda, double beta) {
       for (std::size_t l = 1; l <= reach; ++l)
         if (!ids_of(l).empty()) euler_step(cur, views[l], ids_of(l), flow, lambda, part(out, l));
     }
-    if (beta > 0.0)
+    if (beta > 0.0) {
+      // The updates of every point a compensated row reads (levels 0 .. reach).
+      to_updates(cur, std::span<Vec3>(updated.data(), level_end[reach]));
       for (std::size_t l = 0; l <= last; ++l)
         if (!ids_of(l).empty())
-          compensate_shrinkage(cur, std::span<const Vec3>(updated.data(), cur.size()), views[l], ids_of(l), beta,
-                               part(next, l));
+          compensate_updates(cur, std::span<const Vec3>(updated.data(), cur.size()), views[l], ids_of(l), beta,
+                             part(next, l));
+    }
     // Levels 0 .. last now hold step j in `next`; the later steps read no level beyond
     // `last` (they reach one level less each), so the buffers trade places.
     std::swap(cur, next);

@@ -170,8 +170,8 @@ PipelineStages Run::held_stages(StepPlan& plan, StepWork& work) {
       if (!plan.updated_ready) held_plain_updates(plan, work);
       plan.updated_ready = true;
       s.stats = plan.plain_stats[s.tile];
-      compensate_shrinkage(local, std::span<const Vec3>(held_updated_.data() + base, rows + from.size()), s.nb->local,
-                           identity, params_.shrink_compensation, out);
+      compensate_updates(local, std::span<const Vec3>(held_updated_.data() + base, rows + from.size()), s.nb->local,
+                         identity, params_.shrink_compensation, out);
     } else {
       // The halo from the tiles holding it, here on the compute threads (step-n positions:
       // nothing writes them now; each tile's halo has its own place in the held buffer).
@@ -205,16 +205,19 @@ PipelineStages Run::held_stages(StepPlan& plan, StepWork& work) {
 
 void Run::held_plain_updates(StepPlan& plan, const StepWork& work) {
   // A compensated step with its positions held (shrink_compensation.hpp), in two passes: the
-  // plain step of every tile into held_updated_ (with the first tile's compute), then their
-  // halos copied in; each tile's compute then compensates from both.
+  // plain step's updates of every tile into held_updated_ (with the first tile's compute),
+  // then their halos copied in; each tile's compute then compensates from both.
   std::vector<Vec3>& cur = held_[static_cast<std::size_t>(held_cur_)];
   for (const std::size_t t : work.tiles) {
     const std::uint64_t rows = tiles_.rows(t), base = held_base_[t];
     copy_halo(cur, t);
     const std::span<const Vec3> local(cur.data() + base, rows + held_halo_[t].size());
+    const std::span<Vec3> updates(held_updated_.data() + base, rows);
     plan.plain_stats[t] = euler_step(local, cache_[t]->local, std::span<const Index>(work.identity.data(), rows),
-                                     params_.flow, plan.lambda, std::span<Vec3>(held_updated_.data() + base, rows));
+                                     params_.flow, plan.lambda, updates);
+    to_updates(local, updates);
   }
+  // The halos' updates (their home tiles' own rows, from the same positions).
   for (const std::size_t t : work.tiles) copy_halo(held_updated_, t);
 }
 
