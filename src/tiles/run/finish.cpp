@@ -98,10 +98,13 @@ std::uint64_t finish_part_bytes(std::uint64_t gathered, std::uint64_t queries, s
          seeds * (4 * kk + 6 + sizeof(QuadricFit));
 }
 
-// The seeds finish_part plans for with `queries` points of a part: twice the share of seeds
-// (for the halo's and the hash's spread), every point without sharing.
+// The seeds finish_part plans for with `queries` points of a part: twice their share (for
+// the hash's spread and the halo's seeds), and those among one point's candidates (a small
+// part's halo seeds); none without sharing. A part whose seeds outgrow the plan is split.
 std::uint64_t planned_seeds(std::uint64_t queries, const QuadricProjectionParams& q) {
-  return q.share_stride > 1 ? 2 * queries / static_cast<std::uint64_t>(q.share_stride) + 1 : 0;
+  return q.share_stride > 1 ? 2 * queries / static_cast<std::uint64_t>(q.share_stride) +
+                                  static_cast<std::uint64_t>(q.normal_neighbors) + 1
+                            : 0;
 }
 
 // The box of `points`' rows `rows`.
@@ -201,6 +204,8 @@ bool Run::finish_part(std::size_t t, const TilePart& part, const QuadricProjecti
       account(needed);
       continue;
     }
+    // More seeds than planned (their lists counted now) that do not fit: smaller parts.
+    if (persistent_bytes() + needed > options_.memory_budget) return false;
     // The fits read each neighbour's position and normal: as in finish_with_quadrics, they run
     // on the gathered points stored in Morton order, the lists relabelled (each fit sees the
     // same neighbours in the same order: the same bits), so that those reads stay in cache.
