@@ -39,6 +39,11 @@ class SmoothMatchesCommand(Folder):
     def test_robust_gate(self):
         self.check({"robust_gate": 0, "steps": 6}, ["--robust-gate", "0", "--steps", "6"])
 
+    def test_fit_sharing(self):
+        self.check({"quadric_share": 1, "steps": 4}, ["--quadric-share", "1", "--steps", "4"])
+        self.check({"quadric_share": 8, "quadric_share_turn": 0.05, "steps": 4},
+                   ["--quadric-share", "8", "--quadric-share-turn", "0.05", "--steps", "4"])
+
     def test_finish_options_and_lambda(self):
         self.check({"quadric_k": 40, "quadric_passes": 1, "lambda": 5.0, "steps": 4},
                    ["--quadric-k", "40", "--quadric-passes", "1", "--lambda", "5", "--steps", "4"])
