@@ -85,6 +85,34 @@ TEST_F(TiledFinishTest, BitIdenticalToInCoreForAnyTilingAndThreads) {
   }
 }
 
+// Fit sharing out of core: a tile's points read the fits of seeds in its halo, whose own
+// lists reach beyond the tile's (their balls must lie inside what was gathered). Small tiles,
+// wide fits and seeds of every second point put many seeds near the halo's edge: the same
+// bits as in core.
+TEST_F(TiledFinishTest, SharedFitsOfTheHalosSeedsGiveTheInCoreBits) {
+  const io::PointTable cloud = test::noisy_cube(3000, 43);
+  const SmoothParams params = few_steps(1);
+  for (const int stride : {2, 4}) {
+    QuadricProjectionParams q = finish_params(1, 3);
+    q.k = 60;
+    q.curvature_reach = 0.7;  // sharing reads the seeds' pilot curvature
+    q.min_k = 12;
+    q.share_stride = stride;
+    q.share_turn = 1.0;
+    const test::InCore ref = test::run_in_core(cloud, test::finishing(params, q));
+    QuadricProjectionParams own = q;
+    own.share_stride = 1;
+    ASSERT_NE(ref.positions, test::run_in_core(cloud, test::finishing(params, own)).positions);
+    for (const std::uint64_t tile_points : {3u, 12u, 40u, 200u}) {
+      SCOPED_TRACE(testing::Message() << "stride " << stride << ", tiles of " << tile_points);
+      write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = tile_points}, 256));
+      EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, q), with_finish(q)).finished);
+      test::expect_identical(path("run.h5"), ref);
+      std::filesystem::remove(path("run.h5"));
+    }
+  }
+}
+
 // The finish after the other ways of stepping: rebuilt lists (the attributes use the last
 // ones), temporal blocks, compensated steps.
 // A tile whose finish (the fits' k with their halo) does not fit the budget whole, though its

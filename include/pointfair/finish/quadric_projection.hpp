@@ -63,8 +63,8 @@ struct QuadricProjectionParams {
   /// index in the input, whatever the tiling: is_share_seed) fits its own cubic, a seed; every
   /// other point takes the fit of the nearest seed among its normal_neighbors nearest on its
   /// own face, and moves along that fit's normal onto it, where the surface turns by at most
-  /// share_turn (radians, as placement_turn) between the seed and the point. The others fit
-  /// their own. 1: every point fits its own; 1..64.
+  /// share_turn (radians, as placement_turn; needs curvature_reach > 0) between the seed and
+  /// the point. The others fit their own. 1: every point fits its own; 1..64.
   int share_stride = 4;
   double share_turn = 0.1;
   /// The plane the quadric's height is measured from, and each point's normal. Its three

@@ -17,11 +17,26 @@ std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const 
   lists.fits = build_neighborhoods(local.positions, local.queries, q.k, inf);
   std::vector<char> in_tile(n, 0), named(n, 0);
   for (const Index i : local.queries) in_tile[i] = 1;
-  // Whether row r of `rows` (point i's) is the in-core one; its points named.
+  // Whether the ball of radius `reach` around p lies inside the box around the part that was
+  // gathered.
+  const auto gathered_around = [&](const Vec3& p, double reach) {
+    for (Eigen::Index c = 0; c < 3; ++c) {
+      const std::size_t lo = static_cast<std::size_t>(c), hi = lo + 3;
+      if (!(p[c] - reach > own[lo] - halo && p[c] + reach < own[hi] + halo)) return false;
+    }
+    return true;
+  };
+  // Whether `row` (point i's) is the in-core one; its points named. A point of the part lies
+  // in its box, so that its row's farthest entry within the halo suffices; a halo point's
+  // (a seed's) whole ball must lie inside what was gathered.
   const auto check_row = [&](std::span<const Index> row, Index i) {
-    if (!all && (row.size() < kk || !((local.positions[row.back()] - local.positions[i]).norm() <
-                                       halo * (1.0 - kHaloMargin))))
-      return false;
+    if (!all) {
+      if (row.size() < kk) return false;
+      const double farthest = (local.positions[row.back()] - local.positions[i]).norm();
+      if (in_tile[i] ? !(farthest < halo * (1.0 - kHaloMargin))
+                     : !gathered_around(local.positions[i], farthest + halo * kHaloMargin))
+        return false;
+    }
     for (const Index j : row) named[j] = !in_tile[j];
     return true;
   };
@@ -52,16 +67,11 @@ std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const 
   const Neighborhoods near = build_neighborhoods(local.positions, halo_queries, m, inf);
   if (!all) {
     // A halo point's ball lies inside the box around the tile that was gathered.
-    const Box& b = own;
     for (std::size_t r = 0; r < near.size(); ++r) {
       const std::span<const Index> row = near.of(r);
       if (row.size() < static_cast<std::size_t>(m)) return std::nullopt;
       const Vec3& p = local.positions[halo_queries[r]];
-      const double reach = (local.positions[row.back()] - p).norm() + halo * kHaloMargin;
-      for (Eigen::Index c = 0; c < 3; ++c) {
-        const std::size_t lo = static_cast<std::size_t>(c), hi = lo + 3;
-        if (!(p[c] - reach > b[lo] - halo && p[c] + reach < b[hi] + halo)) return std::nullopt;
-      }
+      if (!gathered_around(p, (local.positions[row.back()] - p).norm() + halo * kHaloMargin)) return std::nullopt;
     }
   }
   // The normals' rows: the tile's points and the halo points the fits name; the others empty.
