@@ -451,10 +451,10 @@ struct RowsJob {
       job.out[r] = job.points[i];
       continue;
     }
-    // Whether a neighbour among the nearest min_k lies on another face (its normal beyond the
-    // angle), i.e. the point is near a crease.
+    // With an anchor: whether a neighbour among the nearest min_k lies on another face (its
+    // normal beyond the angle), i.e. the point is near a crease.
     bool near_crease = false;
-    if (!job.anchors.empty() || sharing) {
+    if (!job.anchors.empty()) {
       const std::span<const Index> row = job.rows.of(r);
       const std::size_t nearest = std::min(row.size(), min_k);
       for (std::size_t c = 0; c < nearest && !near_crease; ++c)
