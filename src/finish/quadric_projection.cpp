@@ -99,11 +99,11 @@ template <int Degree>
 // s.weights (reweighted in place): its height at u = v = 0, its second derivatives
 // (h_uu, h_uv, h_vv) when `second` is not null, and the robust scale of its residuals (1.4826
 // times their median) when `scale` is not null; false when the points do not determine it.
-// With `at` (tangent coordinates u, v), also the fit's height there into *height_at.
+// With `coefficients`, also the polynomial's coefficients (tangent coordinates in units of the
+// fit's reach, reach_of) into it.
 template <int Degree>
 [[gnu::always_inline]] inline bool fit_height(const QuadricProjectionParams& params, std::size_t count, Scratch& s, double& height,
-                double* second = nullptr, double* scale = nullptr, double* coefficients = nullptr,
-                double* inv_reach_out = nullptr) {
+                double* second = nullptr, double* scale = nullptr, double* coefficients = nullptr) {
   constexpr int terms = kTerms<Degree>;
   constexpr int stride = kStride<Degree>;
   using Vec = Eigen::Matrix<double, terms, 1>;
@@ -150,10 +150,7 @@ template <int Degree>
   }
   if (!fitted || !std::isfinite(c[0])) return false;
   height = c[0];
-  if (coefficients != nullptr) {
-    std::copy(c.data(), c.data() + terms, coefficients);
-    *inv_reach_out = inv_reach;
-  }
+  if (coefficients != nullptr) std::copy(c.data(), c.data() + terms, coefficients);
   if (scale != nullptr) {
     for (std::size_t j = 0; j < count; ++j) s.residuals[j] = std::abs(residual(j, c));
     *scale = 1.4826 * detail::select_kth(std::span<const double>(s.residuals.data(), count), count / 2,
@@ -245,8 +242,8 @@ namespace {
   double scale = 0.0;
   const bool fitted =
       params.degree == 3
-          ? fit_height<3>(params, count, s, fit.height, nullptr, &scale, fit.coefficients.data(), &fit.inv_reach)
-          : fit_height<2>(params, count, s, fit.height, nullptr, &scale, fit.coefficients.data(), &fit.inv_reach);
+          ? fit_height<3>(params, count, s, fit.height, nullptr, &scale, fit.coefficients.data())
+          : fit_height<2>(params, count, s, fit.height, nullptr, &scale, fit.coefficients.data());
   if (!fitted) return fit;
   fit.status = QuadricFit::Status::Fitted;
   // A fit that puts p farther off than the Tukey bound of its own residuals extrapolates (a
@@ -263,11 +260,17 @@ namespace {
 // shifted by the same amount. An x outside the fit's reach (which the fit would extrapolate
 // to) goes onto the plane at the clamped height instead.
 template <int Degree>
+[[gnu::always_inline]] inline double height_of_fit(const QuadricFit& fit, const double at[2]) {
+  using Vec = Eigen::Matrix<double, kTerms<Degree>, 1>;
+  // The fit's tangent coordinates are in units of its reach (fit_height: 1 / reach, the
+  // same division).
+  const double inv_reach = 1.0 / fit.reach;
+  return monomials<Degree>(at[0] * inv_reach, at[1] * inv_reach).dot(Eigen::Map<const Vec>(fit.coefficients.data()));
+}
+
 [[gnu::always_inline]] inline double move_onto_fit(const QuadricFit& fit, const double at[2], double x_height,
                                                    const QuadricProjectionParams& params) {
-  using Vec = Eigen::Matrix<double, kTerms<Degree>, 1>;
-  const double height_at = monomials<Degree>(at[0] * fit.inv_reach, at[1] * fit.inv_reach)
-                               .dot(Eigen::Map<const Vec>(fit.coefficients.data()));
+  const double height_at = params.degree == 3 ? height_of_fit<3>(fit, at) : height_of_fit<2>(fit, at);
   // The fit keeps only neighbours whose normals lie within normal_angle of p's: its surface
   // rises from p's plane by at most tan(normal_angle) per unit along it. A fit that rises
   // faster at x extrapolates (a neighbourhood to one side): the height is bounded by that
@@ -307,9 +310,7 @@ template <int Degree>
   // The anchor in p's frame: it moves along n only, onto the fit's height at its own tangent
   // coordinates. Where the fit fails, the anchor goes onto p's plane.
   if (fit.status != QuadricFit::Status::Fitted) return *anchor - anchor_height * n;
-  const double move = params.degree == 3 ? move_onto_fit<3>(fit, at, anchor_height, params)
-                                         : move_onto_fit<2>(fit, at, anchor_height, params);
-  return *anchor + move * n;
+  return *anchor + move_onto_fit(fit, at, anchor_height, params) * n;
 }
 
 // A point q (at `p`, with `anchor` or none) moved along the normal of a neighbour's fit onto
@@ -328,9 +329,7 @@ template <int Degree>
   double at[2];
   const double x_height = frame_coordinates(fit, x, at);
   if (fit.kappa * std::hypot(at[0], at[1]) > params.share_turn) return false;
-  const double move = params.degree == 3 ? move_onto_fit<3>(fit, at, x_height, params)
-                                         : move_onto_fit<2>(fit, at, x_height, params);
-  out = x + move * n;
+  out = x + move_onto_fit(fit, at, x_height, params) * n;
   return true;
 }
 
@@ -470,7 +469,7 @@ struct RowsJob {
         job.out[r] = place_on_own_fit(job.shared->fits[own], anchor, job.params);
         continue;
       }
-      if (job.params.share_stride > 1 && share_fit(job, r, i, anchor)) continue;
+      if (share_fit(job, r, i, anchor)) continue;
       if (!job.left.empty()) {
         job.left[r] = 1;
         continue;

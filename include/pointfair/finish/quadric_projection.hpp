@@ -82,8 +82,7 @@ struct QuadricFit {
   enum class Status : std::uint8_t { None, Plane, Fitted };
   Vec3 origin = Vec3::Zero();  ///< the point fitted
   Vec3 normal = Vec3::Zero();  ///< its robust plane's normal
-  double inv_reach = 0.0;      ///< the fit's tangent coordinates are in these units
-  double reach = 0.0;          ///< the farthest neighbour of the fit along the plane
+  double reach = 0.0;          ///< the farthest neighbour of the fit along the plane (its unit)
   double height = 0.0;         ///< the fit's height at the origin
   double clamped = 0.0;        ///< that height clamped to the Tukey bound of the fit's residuals
   double kappa = -1.0;         ///< the pilot quadric's largest curvature; < 0: none
