@@ -44,19 +44,38 @@ std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const 
     if (!check_row(lists.fits.of(r), local.queries[r])) return std::nullopt;
   if (q.share_stride > 1) {
     // The seeds a tile point may share the fit of (among its first normal_neighbors), in
-    // ascending local order, each with its own fit's row.
+    // ascending local order, each with its own fit's row: a tile seed's is its row above, a
+    // halo seed's is built here.
     std::vector<char> seed(n, 0);
+    std::vector<Index> tile_row(n, 0);
     const std::size_t candidates = static_cast<std::size_t>(q.normal_neighbors);
     for (std::size_t r = 0; r < lists.fits.size(); ++r) {
       const std::span<const Index> row = lists.fits.of(r);
       for (const Index j : row.first(std::min(candidates, row.size()))) seed[j] = 1;
       seed[local.queries[r]] = 1;
+      tile_row[local.queries[r]] = static_cast<Index>(r);
     }
+    std::vector<Index> halo_seeds;
     for (std::size_t i = 0; i < n; ++i)
-      if (seed[i] && is_share_seed(local.original[i], q)) lists.seed_queries.push_back(static_cast<Index>(i));
-    lists.seed_fits = build_neighborhoods(local.positions, lists.seed_queries, q.k, inf);
-    for (std::size_t r = 0; r < lists.seed_fits.size(); ++r)
-      if (!check_row(lists.seed_fits.of(r), lists.seed_queries[r])) return std::nullopt;
+      if (seed[i] && is_share_seed(local.original[i], q)) {
+        lists.seed_queries.push_back(static_cast<Index>(i));
+        if (!in_tile[i]) halo_seeds.push_back(static_cast<Index>(i));
+      }
+    const Neighborhoods halo_rows = build_neighborhoods(local.positions, halo_seeds, q.k, inf);
+    for (std::size_t r = 0; r < halo_rows.size(); ++r)
+      if (!check_row(halo_rows.of(r), halo_seeds[r])) return std::nullopt;
+    Neighborhoods& rows = lists.seed_fits;
+    rows.stride = std::max(lists.fits.stride, halo_rows.stride);
+    rows.eps = inf;
+    rows.counts.assign(lists.seed_queries.size(), 0);
+    rows.indices.assign(lists.seed_queries.size() * static_cast<std::size_t>(rows.stride), 0);
+    std::size_t next_halo = 0;
+    for (std::size_t r = 0; r < lists.seed_queries.size(); ++r) {
+      const Index i = lists.seed_queries[r];
+      const std::span<const Index> row = in_tile[i] ? lists.fits.of(tile_row[i]) : halo_rows.of(next_halo++);
+      std::copy(row.begin(), row.end(), rows.indices.begin() + static_cast<std::ptrdiff_t>(r * static_cast<std::size_t>(rows.stride)));
+      rows.counts[r] = static_cast<std::uint16_t>(row.size());
+    }
   }
   std::vector<Index> halo_queries;
   for (std::size_t i = 0; i < n; ++i)
