@@ -10,17 +10,11 @@
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/smooth.hpp"
+#include "support/checks.hpp"
 #include "support/clouds.hpp"
 
 namespace pointfair {
 namespace {
-
-// RMS distance of the points to the unit sphere.
-double sphere_rms(const std::vector<Vec3>& points) {
-  double sum = 0.0;
-  for (const Vec3& p : points) sum += (p.norm() - 1.0) * (p.norm() - 1.0);
-  return std::sqrt(sum / static_cast<double>(points.size()));
-}
 
 // A unit sphere under heavy noise: 2% of the diagonal, several sample spacings.
 std::vector<Vec3> heavy_noise_sphere(std::size_t n) {
@@ -42,8 +36,8 @@ TEST(CoarseLevel, RemovesHeavyNoiseInAFewFineSteps) {
   EXPECT_EQ(coarse_report.steps, CoarseLevelParams{}.fine_steps);
   EXPECT_GT(plain_report.steps, coarse_report.steps);
   // At least as close to the sphere as the flow alone (measured: about 7% closer).
-  EXPECT_LT(sphere_rms(coarse), sphere_rms(input) / 3.0);
-  EXPECT_LE(sphere_rms(coarse), 1.02 * sphere_rms(plain)) << sphere_rms(plain);
+  EXPECT_LT(test::unit_sphere_rms(coarse), test::unit_sphere_rms(input) / 3.0);
+  EXPECT_LE(test::unit_sphere_rms(coarse), 1.02 * test::unit_sphere_rms(plain)) << test::unit_sphere_rms(plain);
   // The placement keeps each input point's place on the surface as the flow alone does: it
   // moves along the normal, so its direction from the centre turns as little (the coarse
   // level's points slide, the input's do not).

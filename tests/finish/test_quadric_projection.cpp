@@ -16,15 +16,10 @@
 #include "pointfair/frames/robust_frame.hpp"
 #include "pointfair/neighbors/neighborhoods.hpp"
 #include "pointfair/shapes/shapes.hpp"
+#include "support/checks.hpp"
 
 namespace pointfair {
 namespace {
-
-double rms_radial_error(const std::vector<Vec3>& p) {
-  double s = 0.0;
-  for (const Vec3& x : p) s += (x.norm() - 1.0) * (x.norm() - 1.0);
-  return std::sqrt(s / static_cast<double>(p.size()));
-}
 
 // Two faces meeting at a crease along the y axis, y in [-1, 1]: face A, z = 0 for x in
 // [-1, 0]; face B, s (cos a, 0, sin a) for s in [0, 1], a = `bend` radians. Each point moved
@@ -66,11 +61,11 @@ struct Crease {
 TEST(QuadricProjection, RemovesNoiseFromASphereWithoutShrinkingIt) {
   std::vector<Vec3> p = sample_sphere(4000, 1.0, 7).points;
   add_noise(p, 0.01, 8);
-  const double before = rms_radial_error(p);
+  const double before = test::unit_sphere_rms(p);
   QuadricProjectionParams params;
   params.k = 60;
   finish_with_quadrics(p, params);
-  const double after = rms_radial_error(p);
+  const double after = test::unit_sphere_rms(p);
   EXPECT_LT(after, 0.4 * before) << "before " << before << ", after " << after;
   double mean = 0.0;
   for (const Vec3& x : p) mean += x.norm();
@@ -337,8 +332,8 @@ TEST(QuadricProjection, SharingStopsWhereTheSurfaceTurns) {
   std::vector<Vec3> shared = p;
   finish_with_quadrics(shared, params);
   EXPECT_NE(shared, own);
-  EXPECT_LT(rms_radial_error(shared), 1.1 * rms_radial_error(own));
-  EXPECT_LT(rms_radial_error(shared), 0.5 * rms_radial_error(p));
+  EXPECT_LT(test::unit_sphere_rms(shared), 1.1 * test::unit_sphere_rms(own));
+  EXPECT_LT(test::unit_sphere_rms(shared), 0.5 * test::unit_sphere_rms(p));
 }
 
 TEST(QuadricProjection, TooFewPointsStayPut) {

@@ -31,12 +31,6 @@ double mean_radius(const std::vector<Vec3>& p) {
   return s / static_cast<double>(p.size());
 }
 
-double rms_radial_error(const std::vector<Vec3>& p) {
-  double s = 0.0;
-  for (const Vec3& x : p) s += (x.norm() - 1.0) * (x.norm() - 1.0);
-  return std::sqrt(s / static_cast<double>(p.size()));
-}
-
 TEST(ShrinkCompensation, MatchesThePlainFormula) {
   const std::vector<Vec3> current = noisy_sphere(2000, 0.01, 3);
   NeighborParams np;
@@ -187,8 +181,8 @@ TEST(ShrinkCompensation, KeepsTheSphereItsSizeWhileRemovingItsNoise) {
   EXPECT_GT(shrink_plain, 0.01);
   EXPECT_LT(shrink_compensated, 0.1 * shrink_plain);
   // And the noise is still removed: the radial error falls well below the input's.
-  EXPECT_LT(rms_radial_error(compensated), 0.5 * rms_radial_error(input));
-  EXPECT_LT(rms_radial_error(compensated), rms_radial_error(plain));
+  EXPECT_LT(test::unit_sphere_rms(compensated), 0.5 * test::unit_sphere_rms(input));
+  EXPECT_LT(test::unit_sphere_rms(compensated), test::unit_sphere_rms(plain));
 }
 
 TEST(StopPlateau, StopsOnceLambdaNoLongerFalls) {

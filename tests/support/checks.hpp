@@ -1,6 +1,7 @@
 #pragma once
 // Small comparison helpers shared by the core tests.
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <span>
 #include <vector>
@@ -28,6 +29,13 @@ bool bitwise_equal(std::span<const T> a, std::span<const T> b) {
 template <class T>
 bool bitwise_equal(const std::vector<T>& a, const std::vector<T>& b) {
   return bitwise_equal(std::span<const T>(a), std::span<const T>(b));
+}
+
+/// RMS distance of the points to the unit sphere about the origin.
+inline double unit_sphere_rms(std::span<const Vec3> points) {
+  double sum = 0.0;
+  for (const Vec3& p : points) sum += (p.norm() - 1.0) * (p.norm() - 1.0);
+  return points.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(points.size()));
 }
 
 /// Largest |a_i - b_i| over two equally long position arrays.
