@@ -34,6 +34,7 @@ SmoothParams paper_smooth_params(SmoothParams base) {
   base.stop_lambda_ratio = 0.0;
   base.stop_plateau = 0.0;
   base.shrink_compensation = 0.0;
+  base.momentum = 0.0;
   if (base.neighbors.k == 0) base.neighbors.k = kAutoKMin;
   base.finish.reset();
   base.coarse.reset();
@@ -86,6 +87,10 @@ std::optional<StopReason> stop_reason(const SmoothParams& params, std::span<cons
   return std::nullopt;
 }
 
+double momentum_of_step(const SmoothParams& params, int step, bool rebuilt, bool lambda_rose) {
+  return step == 0 || rebuilt || lambda_rose ? 0.0 : params.momentum;
+}
+
 bool measures_lambda_before(const SmoothParams& params, int step) {
   return params.flow.flow == Flow::Anisotropic || step == params.steps - 1;
 }
@@ -102,6 +107,7 @@ void SmoothParams::validate() const {
           "stop lambda ratio must be in [0, 1) (0 = off), got " + std::to_string(stop_lambda_ratio));
   require(stop_plateau >= 0.0 && stop_plateau < 1.0,
           "stop plateau must be in [0, 1) (0 = off), got " + std::to_string(stop_plateau));
+  require(momentum >= 0.0 && momentum < 1.0, "momentum must be in [0, 1) (0 = off), got " + std::to_string(momentum));
   require(shrink_compensation >= 0.0 && shrink_compensation <= 1.0,
           "shrink compensation must be in [0, 1] (0 = off), got " + std::to_string(shrink_compensation));
   if (finish) finish->validate();
@@ -165,13 +171,16 @@ SmoothReport run_flow(std::vector<Vec3>& positions, const SmoothParams& params, 
   report.lambda = measure_lambda();
   report.seconds_neighbors += seconds_since(t0);
 
+  // `next` holds the step before the current one (for the momentum) until a step writes it.
   std::vector<Vec3> next(positions.size());
-  // The flow's own update, when it is compensated (shrink_compensation.hpp).
-  std::vector<Vec3> updated(params.shrink_compensation > 0.0 ? positions.size() : 0);
+  // The flow's own update, when it is compensated (shrink_compensation.hpp) or has momentum.
+  std::vector<Vec3> updated(params.shrink_compensation > 0.0 || params.momentum > 0.0 ? positions.size() : 0);
   // lambdas[s]: the automatic lambda measured before step s + 1 (SmoothParams::stop_plateau).
   std::vector<double> lambdas{report.lambda};
   for (int step = 0; step < params.steps; ++step) {
+    bool rebuilt = false, lambda_rose = false;
     if (params.rebuild_interval > 0 && step > 0 && step % params.rebuild_interval == 0) {
+      rebuilt = true;
       t0 = std::chrono::steady_clock::now();
       neighborhoods = build_reordered_neighborhoods(scatter(positions, order), params.neighbors,
                                                     order, row_of);
@@ -183,6 +192,7 @@ SmoothReport run_flow(std::vector<Vec3>& positions, const SmoothParams& params, 
     t0 = std::chrono::steady_clock::now();
     if (params.lambda_every_step && step > 0 && measures_lambda_before(params, step)) {
       report.lambda = measure_lambda();
+      lambda_rose = report.lambda > lambdas.back();
       lambdas.push_back(report.lambda);
       // The automatic lambda gauges the noise: stop once it has fallen far enough.
       const std::optional<StopReason> reason =
@@ -195,13 +205,18 @@ SmoothReport run_flow(std::vector<Vec3>& positions, const SmoothParams& params, 
         break;
       }
     }
+    const StepMomentum momentum{momentum_of_step(params, step, rebuilt, lambda_rose), next};
+    if (params.momentum > 0.0 && step > 0 && momentum.m == 0.0 && lambda_rose) ++report.momentum_restarts;
     StepStats stats;
     if (updated.empty()) {
       stats = euler_step(positions, neighborhoods, {}, params.flow, report.lambda, next);
+    } else if (params.shrink_compensation == 0.0) {
+      stats = euler_step(positions, neighborhoods, {}, params.flow, report.lambda, updated);
+      add_momentum(positions, updated, {}, momentum, next);
     } else {
       stats = euler_step(positions, neighborhoods, {}, params.flow, report.lambda, updated);
       to_updates(positions, updated);
-      compensate_updates(positions, updated, neighborhoods, {}, params.shrink_compensation, next);
+      compensate_updates(positions, updated, neighborhoods, {}, params.shrink_compensation, momentum, next);
     }
     positions.swap(next);
     report.degenerate = stats.degenerate;

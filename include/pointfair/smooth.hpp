@@ -134,6 +134,17 @@ struct SmoothParams {
   /// 3.07e-3, bunny (100K, 0.1%) 0.272e-3 vs 0.462e-3 (README, Quality). Out of core each
   /// tile then comes with the 2-ring closure of its lists (tiled_smooth.hpp).
   double shrink_compensation = 1.0;
+  /// Momentum m in [0, 1) (dimensionless; 0 = off, the paper's plain steps; beyond the paper):
+  /// each step also moves a point by m times its move in the step before,
+  ///   p_i(n+1) = p_i(n) + c_i + m (p_i(n) - p_i(n-1))   (c_i the step, compensated or not),
+  /// the heavy-ball scheme. Noise whose reach spans many sample spacings (heavy noise on a dense
+  /// cloud) needs many plain steps, as each step smooths over one neighbourhood; with momentum
+  /// those slow, smooth parts of the noise go about 1 / (1 - m) times faster per step, while
+  /// the fast ones still fall. Where the automatic lambda (the noise gauge) rose since the
+  /// step before, the step drops the momentum (a restart: the flow overshot), as it does on
+  /// its first step and after a rebuild. In core only for now (smooth_out_of_core refuses
+  /// it); measured in docs/momentum.md.
+  double momentum = 0.0;
   /// The quadric finish after the flow (quadric_projection.hpp, beyond the paper); empty: the
   /// flow's result as it is. Measured on the quality benchmark (docs/quality.md): lowers the
   /// RMS distance in 14 of 15 cases.
@@ -157,6 +168,11 @@ enum class StopReason {
   /// SmoothParams::steps were run.
   StepLimit,
 };
+
+/// The momentum of step `step` (0-based; SmoothParams::momentum): none on the first step, on a
+/// step that starts from rebuilt neighbourhoods, or where the automatic lambda measured before
+/// it rose above the one measured before the step before (`lambda_rose`: a restart).
+double momentum_of_step(const SmoothParams& params, int step, bool rebuilt, bool lambda_rose);
 
 /// "lambda_ratio", "plateau", "step_limit".
 std::string_view to_string(StopReason reason);
@@ -220,6 +236,8 @@ struct SmoothReport {
   double eps = 0.0;
   double lambda = 0.0;
   int rebuilds = 0;
+  /// Steps whose momentum was dropped because the noise gauge rose (SmoothParams::momentum).
+  int momentum_restarts = 0;
   /// True when an automatic stop ended the flow before `steps` (stop_reason says which).
   bool stopped_early = false;
   StopReason stop_reason = StopReason::StepLimit;

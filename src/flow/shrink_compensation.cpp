@@ -12,13 +12,16 @@ namespace {
 // The compensated step of every row, with update(j) the flow's own update of point j.
 template <class Update>
 void compensate_rows(std::span<const Vec3> current, const Update& update, std::size_t size,
-                     NeighborhoodsView neighborhoods, std::span<const Index> rows, double beta, std::span<Vec3> next) {
+                     NeighborhoodsView neighborhoods, std::span<const Index> rows, double beta,
+                     const StepMomentum& momentum, std::span<Vec3> next) {
   const std::size_t n = neighborhoods.size();
   require(beta >= 0.0 && beta <= 1.0, "shrink compensation must be in [0, 1]");
   require(current.size() == size, "compensate_shrinkage: current and updated differ in size");
   require(rows.empty() || rows.size() == n, "compensate_shrinkage: rows must match the neighbourhoods");
   require(!rows.empty() || current.size() == n, "compensate_shrinkage: one neighbourhood row per point");
   require(next.size() == n, "compensate_shrinkage: one output per neighbourhood row");
+  const double m = momentum.m;
+  require(m == 0.0 || momentum.previous.size() == n, "compensate_shrinkage: one previous position per row");
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t r = begin; r < end; ++r) {
       const std::size_t i = rows.empty() ? r : rows[r];
@@ -34,7 +37,7 @@ void compensate_rows(std::span<const Vec3> current, const Update& update, std::s
       Vec3 step = own - beta * mean;
       const double limit = own.squaredNorm(), length = step.squaredNorm();
       if (length > limit) step *= std::sqrt(limit / length);
-      next[r] = current[i] + step;
+      next[r] = m == 0.0 ? Vec3(current[i] + step) : Vec3((current[i] + step) + m * (current[i] - momentum.previous[r]));
     }
   }, 2048);
 }
@@ -46,7 +49,7 @@ void compensate_shrinkage(std::span<const Vec3> current, std::span<const Vec3> u
                           double beta, std::span<Vec3> next) {
   compensate_rows(
       current, [&](std::size_t j) -> Vec3 { return updated[j] - current[j]; }, updated.size(), neighborhoods, rows,
-      beta, next);
+      beta, StepMomentum{}, next);
 }
 
 void to_updates(std::span<const Vec3> current, std::span<Vec3> updated) {
@@ -61,7 +64,32 @@ void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> upd
                         std::span<Vec3> next) {
   compensate_rows(
       current, [&](std::size_t j) -> const Vec3& { return updates[j]; }, updates.size(), neighborhoods, rows, beta,
-      next);
+      StepMomentum{}, next);
+}
+
+void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> updates,
+                        NeighborhoodsView neighborhoods, std::span<const Index> rows, double beta,
+                        const StepMomentum& momentum, std::span<Vec3> next) {
+  require(momentum.m >= 0.0 && momentum.m < 1.0, "momentum must be in [0, 1)");
+  compensate_rows(
+      current, [&](std::size_t j) -> const Vec3& { return updates[j]; }, updates.size(), neighborhoods, rows, beta,
+      momentum, next);
+}
+
+void add_momentum(std::span<const Vec3> current, std::span<const Vec3> updated, std::span<const Index> rows,
+                  const StepMomentum& momentum, std::span<Vec3> next) {
+  const std::size_t n = next.size();
+  const double m = momentum.m;
+  require(m >= 0.0 && m < 1.0, "momentum must be in [0, 1)");
+  require(updated.size() == n && (m == 0.0 || momentum.previous.size() == n), "add_momentum: one row each");
+  require(rows.empty() || rows.size() == n, "add_momentum: rows must match the output");
+  require(!rows.empty() || current.size() == n, "add_momentum: one current position per row");
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t r = begin; r < end; ++r) {
+      const Vec3& p = current[rows.empty() ? r : rows[r]];
+      next[r] = m == 0.0 ? updated[r] : Vec3(updated[r] + m * (p - momentum.previous[r]));
+    }
+  }, 16384);
 }
 
 }  // namespace pointfair

@@ -39,6 +39,7 @@ std::map<std::string, std::string> library_defaults() {
       {"stop-lambda-ratio", text(p.stop_lambda_ratio)},
       {"stop-plateau", text(p.stop_plateau)},
       {"shrink-compensation", text(p.shrink_compensation)},
+      {"momentum", text(p.momentum)},
       {"lambda-factor", text(p.flow.lambda_auto_factor)},
       {"normal", p.flow.normal_estimator == NormalEstimator::Robust ? "robust" : "pca"},
       {"robust-seed", text(p.flow.robust.seed_neighbors)},

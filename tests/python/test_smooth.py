@@ -44,6 +44,9 @@ class SmoothMatchesCommand(Folder):
         self.check({"quadric_share": 8, "quadric_share_turn": 0.05, "steps": 4},
                    ["--quadric-share", "8", "--quadric-share-turn", "0.05", "--steps", "4"])
 
+    def test_momentum(self):
+        self.check({"momentum": 0.7, "steps": 6}, ["--momentum", "0.7", "--steps", "6"])
+
     def test_finish_options_and_lambda(self):
         self.check({"quadric_k": 40, "quadric_passes": 1, "lambda": 5.0, "steps": 4},
                    ["--quadric-k", "40", "--quadric-passes", "1", "--lambda", "5", "--steps", "4"])

@@ -139,6 +139,12 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "flow), so that curved surfaces do not shrink as the noise goes. 0 = the paper's flow. " +
               smooth_default("shrink_compensation") + ".",
           [&s](std::string_view v) { s.shrink_compensation = parse_double(v, "--shrink-compensation"); });
+  p.value("momentum", "M",
+          "Momentum, M in [0, 1) (dimensionless; beyond the paper): each step also moves a point by "
+          "M times its move in the step before (heavy ball), dropped for a step where the noise "
+          "gauge rose; heavy noise on dense clouds goes in far fewer steps. In core only for now. "
+          "0 = off (the paper's steps). " + smooth_default("momentum") + ".",
+          [&s](std::string_view v) { s.momentum = parse_double(v, "--momentum"); });
   p.value("lambda-factor", "F", "Multiplier of the automatic lambda (dimensionless). " + smooth_default("lambda_factor") + ".",
           [&s](std::string_view v) { s.flow.lambda_auto_factor = parse_double(v, "--lambda-factor"); });
   p.flag("constrain-normal",

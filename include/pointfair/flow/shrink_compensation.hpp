@@ -43,4 +43,22 @@ void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> upd
                         NeighborhoodsView neighborhoods, std::span<const Index> rows, double beta,
                         std::span<Vec3> next);
 
+/// The momentum of a step (SmoothParams::momentum): m, and the step-(n-1) positions of the
+/// rows, previous[r] for next[r]. `previous` may be `next` itself (each row is read before it
+/// is written), which is how the double-buffered steps hold them.
+struct StepMomentum {
+  double m = 0.0;
+  std::span<const Vec3> previous;
+};
+
+/// compensate_updates with momentum: next[r] = (current[i] + c_r) + m (current[i] - previous[r]).
+void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> updates,
+                        NeighborhoodsView neighborhoods, std::span<const Index> rows, double beta,
+                        const StepMomentum& momentum, std::span<Vec3> next);
+
+/// An uncompensated step with momentum: next[r] = updated[r] + m (current[i] - previous[r]),
+/// with updated[r] the euler_step output of row r (point rows[r]; rows empty: row r is point r).
+void add_momentum(std::span<const Vec3> current, std::span<const Vec3> updated, std::span<const Index> rows,
+                  const StepMomentum& momentum, std::span<Vec3> next);
+
 }  // namespace pointfair
