@@ -87,8 +87,11 @@ std::optional<StopReason> stop_reason(const SmoothParams& params, std::span<cons
   return std::nullopt;
 }
 
-double momentum_of_step(const SmoothParams& params, int step, bool rebuilt, bool lambda_rose) {
-  return step == 0 || rebuilt || lambda_rose ? 0.0 : params.momentum;
+double momentum_of_step(const SmoothParams& params, int step, bool rebuilt, bool lambda_rose,
+                        std::span<const double> lambdas) {
+  if (step == 0 || rebuilt || lambda_rose) return 0.0;
+  if (lambdas.size() >= 2 && lambdas[1] < params.momentum_gate * lambdas[0]) return 0.0;
+  return params.momentum;
 }
 
 bool measures_lambda_before(const SmoothParams& params, int step) {
@@ -108,6 +111,8 @@ void SmoothParams::validate() const {
   require(stop_plateau >= 0.0 && stop_plateau < 1.0,
           "stop plateau must be in [0, 1) (0 = off), got " + std::to_string(stop_plateau));
   require(momentum >= 0.0 && momentum < 1.0, "momentum must be in [0, 1) (0 = off), got " + std::to_string(momentum));
+  require(momentum_gate >= 0.0 && momentum_gate <= 1.0,
+          "momentum gate must be in [0, 1] (0 = always), got " + std::to_string(momentum_gate));
   require(shrink_compensation >= 0.0 && shrink_compensation <= 1.0,
           "shrink compensation must be in [0, 1] (0 = off), got " + std::to_string(shrink_compensation));
   if (finish) finish->validate();
@@ -205,8 +210,9 @@ SmoothReport run_flow(std::vector<Vec3>& positions, const SmoothParams& params, 
         break;
       }
     }
-    const StepMomentum momentum{momentum_of_step(params, step, rebuilt, lambda_rose), next};
-    if (params.momentum > 0.0 && step > 0 && momentum.m == 0.0 && lambda_rose) ++report.momentum_restarts;
+    const StepMomentum momentum{momentum_of_step(params, step, rebuilt, lambda_rose, lambdas), next};
+    if (params.momentum > 0.0 && momentum_of_step(params, step, rebuilt, false, lambdas) > 0.0 && lambda_rose)
+      ++report.momentum_restarts;
     StepStats stats;
     if (updated.empty()) {
       stats = euler_step(positions, neighborhoods, {}, params.flow, report.lambda, next);

@@ -80,15 +80,40 @@ TEST(Momentum, UncompensatedRowsAddTheMoveBefore) {
   EXPECT_TRUE(test::bitwise_equal(std::span<const Vec3>(next), std::span<const Vec3>(updated)));
 }
 
-TEST(Momentum, NoneOnTheFirstStepAfterARebuildOrWhereTheGaugeRose) {
+TEST(Momentum, NoneOnTheFirstStepAfterARebuildWhereTheGaugeRoseOrInAGatedRun) {
   SmoothParams params;
   params.momentum = 0.6;
-  EXPECT_EQ(momentum_of_step(params, 0, false, false), 0.0);
-  EXPECT_EQ(momentum_of_step(params, 1, false, false), 0.6);
-  EXPECT_EQ(momentum_of_step(params, 5, true, false), 0.0);
-  EXPECT_EQ(momentum_of_step(params, 5, false, true), 0.0);
+  const std::vector<double> slow{1.0, 0.95, 0.9}, fast{1.0, 0.6, 0.5};
+  EXPECT_EQ(momentum_of_step(params, 0, false, false, std::span<const double>(slow).first(1)), 0.0);
+  EXPECT_EQ(momentum_of_step(params, 1, false, false, std::span<const double>(slow).first(2)), 0.6);
+  EXPECT_EQ(momentum_of_step(params, 2, false, false, slow), 0.6);
+  EXPECT_EQ(momentum_of_step(params, 2, true, false, slow), 0.0);
+  EXPECT_EQ(momentum_of_step(params, 2, false, true, slow), 0.0);
+  // The first step left 0.6 of the gauge: a fast run, no momentum (the gate 0.9).
+  EXPECT_EQ(momentum_of_step(params, 2, false, false, fast), 0.0);
+  params.momentum_gate = 0.5;
+  EXPECT_EQ(momentum_of_step(params, 2, false, false, fast), 0.6);
+  // No gauge measured every step: no gate.
+  params.momentum_gate = 0.9;
+  EXPECT_EQ(momentum_of_step(params, 5, false, false, std::span<const double>(fast).first(1)), 0.6);
   params.momentum = 0.0;
-  EXPECT_EQ(momentum_of_step(params, 5, false, false), 0.0);
+  EXPECT_EQ(momentum_of_step(params, 5, false, false, slow), 0.0);
+}
+
+// Light noise loses most of its gauge in the first step: the gate leaves such a run without
+// momentum, the same bits as without it.
+TEST(Momentum, TheGateLeavesLightNoiseAlone) {
+  std::vector<Vec3> input = sample_sphere(8000, 1.0, 23).points;
+  add_noise(input, 0.001 * bounding_box_diagonal(input), 24);
+  std::vector<Vec3> plain = input, gated = input, ungated = input;
+  smooth(plain, {});
+  SmoothParams params;
+  params.momentum = 0.7;
+  smooth(gated, params);
+  EXPECT_TRUE(test::bitwise_equal(gated, plain));
+  params.momentum_gate = 0.0;
+  smooth(ungated, params);
+  EXPECT_FALSE(test::bitwise_equal(ungated, plain));
 }
 
 // smooth() against a hand-driven loop of the same formula, restarts included: the same bits,
@@ -104,6 +129,7 @@ TEST(Momentum, SmoothIsTheHandDrivenLoop) {
     params.stop_plateau = 0.0;
     params.shrink_compensation = beta;
     params.momentum = 0.8;
+    params.momentum_gate = 0.0;  // this light noise would turn it off (TheGateLeavesLightNoiseAlone)
     std::vector<Vec3> points = input;
     const SmoothReport report = smooth(points, params);
 
@@ -182,6 +208,12 @@ TEST(Momentum, OutOfRangeIsRefused) {
   for (const double bad : {-0.1, 1.0, 1.5, std::nan("")}) {
     SmoothParams params;
     params.momentum = bad;
+    EXPECT_THROW(smooth(cloud, params), ParamError) << bad;
+  }
+  for (const double bad : {-0.1, 1.01, std::nan("")}) {
+    SmoothParams params;
+    params.momentum = 0.5;
+    params.momentum_gate = bad;
     EXPECT_THROW(smooth(cloud, params), ParamError) << bad;
   }
   EXPECT_EQ(paper_smooth_params().momentum, 0.0);

@@ -139,12 +139,20 @@ struct SmoothParams {
   ///   p_i(n+1) = p_i(n) + c_i + m (p_i(n) - p_i(n-1))   (c_i the step, compensated or not),
   /// the heavy-ball scheme. Noise whose reach spans many sample spacings (heavy noise on a dense
   /// cloud) needs many plain steps, as each step smooths over one neighbourhood; with momentum
-  /// those slow, smooth parts of the noise go about 1 / (1 - m) times faster per step, while
-  /// the fast ones still fall. Where the automatic lambda (the noise gauge) rose since the
-  /// step before, the step drops the momentum (a restart: the flow overshot), as it does on
-  /// its first step and after a rebuild. In core only for now (smooth_out_of_core refuses
-  /// it); measured in docs/momentum.md.
+  /// those slow, smooth parts of the noise go about 1 / (1 - m) times faster per step. Where
+  /// the automatic lambda (the noise gauge) rose since the step before, the step drops the
+  /// momentum (a restart: the flow overshot), as it does on its first step and after a
+  /// rebuild; and where the first (plain) step lowered the gauge below momentum_gate times the
+  /// input's, the noise is fast to go and the run has none (momentum_of_step). In core only for
+  /// now (smooth_out_of_core refuses it); measured in docs/momentum.md.
   double momentum = 0.0;
+  /// Momentum only for slow runs (dimensionless, in [0, 1]; 0 = always): with lambda_1 the
+  /// automatic lambda after the first step and lambda_0 the input's, a run whose lambda_1 <
+  /// momentum_gate lambda_0 has no momentum. Light noise loses most of its gauge in the first
+  /// step (0.57-0.63 of it on the quality benchmark's cases at 0.1%), where momentum only
+  /// overshoots (the sphere's RMS +42% at 0.1% without the gate); heavy noise on a dense cloud
+  /// keeps 0.94-1.0 of it. 0.9 measured: docs/momentum.md.
+  double momentum_gate = 0.9;
   /// The quadric finish after the flow (quadric_projection.hpp, beyond the paper); empty: the
   /// flow's result as it is. Measured on the quality benchmark (docs/quality.md): lowers the
   /// RMS distance in 14 of 15 cases.
@@ -170,9 +178,13 @@ enum class StopReason {
 };
 
 /// The momentum of step `step` (0-based; SmoothParams::momentum): none on the first step, on a
-/// step that starts from rebuilt neighbourhoods, or where the automatic lambda measured before
-/// it rose above the one measured before the step before (`lambda_rose`: a restart).
-double momentum_of_step(const SmoothParams& params, int step, bool rebuilt, bool lambda_rose);
+/// step that starts from rebuilt neighbourhoods, where the automatic lambda measured before it
+/// rose above the one measured before the step before (`lambda_rose`: a restart), or in a run
+/// the gate turned it off for (SmoothParams::momentum_gate; `lambdas` as stop_reason reads
+/// them: the input's and those measured before each step since; fewer than two, as without an
+/// automatic lambda measured every step: no gate).
+double momentum_of_step(const SmoothParams& params, int step, bool rebuilt, bool lambda_rose,
+                        std::span<const double> lambdas);
 
 /// "lambda_ratio", "plateau", "step_limit".
 std::string_view to_string(StopReason reason);

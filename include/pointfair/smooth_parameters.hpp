@@ -31,7 +31,7 @@ constexpr bool spacing_feature_rule(const SmoothParams& p) {
 
 // Entries without a --json name are written there by the summary itself: the k, eps and
 // lambda the run used rather than those asked for, and the feature threshold's rule.
-inline constexpr std::array<SmoothParameter, 30> kSmoothParameters{{
+inline constexpr std::array<SmoothParameter, 31> kSmoothParameters{{
     {"k", "", "k", [](const SmoothParams& p) { return integer_value(p.neighbors.k); }},
     {"eps", "", "eps_requested", [](const SmoothParams& p) { return real_value(p.neighbors.eps); }},
     {"eps_factor", "", "eps_factor", [](const SmoothParams& p) { return real_value(p.neighbors.eps_auto_factor); }},
@@ -81,17 +81,19 @@ inline constexpr std::array<SmoothParameter, 30> kSmoothParameters{{
      [](const SmoothParams& p) { return p.flow.robust.gate != 0.0; }},
     {"momentum", "momentum", "", [](const SmoothParams& p) { return real_value(p.momentum); },
      [](const SmoothParams& p) { return p.momentum != 0.0; }},
+    {"momentum_gate", "momentum_gate", "", [](const SmoothParams& p) { return real_value(p.momentum_gate); },
+     [](const SmoothParams& p) { return p.momentum != 0.0; }},
 }};
 
 /// The --json "parameters" block's order: the table's --json names and, where the summary
 /// writes them itself, "k", "k_auto", "eps", "lambda", "lambda_auto", "feature_threshold" and
 /// "feature_turn".
-inline constexpr std::array<std::string_view, 30> kSmoothJsonOrder{
+inline constexpr std::array<std::string_view, 31> kSmoothJsonOrder{
     "k",           "k_auto",        "eps",           "steps",          "tau",               "flow",
     "cutoff",      "lambda",        "lambda_auto",   "lambda_factor",  "lambda_every_step", "constrain_normal",
     "rebuild_every", "features",    "edge_quotient", "feature_threshold", "feature_turn",   "feature_gated",
     "weights",     "density_floor", "cutoff_origin", "stop_lambda_ratio", "stop_plateau",   "shrink_compensation",
-    "momentum",    "normal",      "robust_seed",   "robust_iterations", "robust_bound", "robust_gate"};
+    "momentum",    "momentum_gate", "normal",      "robust_seed",   "robust_iterations", "robust_bound", "robust_gate"};
 static_assert(covers<SmoothParams>(kSmoothParameters, &SmoothParameter::json, kSmoothJsonOrder));
 
 /// The run file's attributes' order.

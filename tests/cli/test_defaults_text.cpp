@@ -40,6 +40,7 @@ std::map<std::string, std::string> library_defaults() {
       {"stop-plateau", text(p.stop_plateau)},
       {"shrink-compensation", text(p.shrink_compensation)},
       {"momentum", text(p.momentum)},
+      {"momentum-gate", text(p.momentum_gate)},
       {"lambda-factor", text(p.flow.lambda_auto_factor)},
       {"normal", p.flow.normal_estimator == NormalEstimator::Robust ? "robust" : "pca"},
       {"robust-seed", text(p.flow.robust.seed_neighbors)},

@@ -142,9 +142,14 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
   p.value("momentum", "M",
           "Momentum, M in [0, 1) (dimensionless; beyond the paper): each step also moves a point by "
           "M times its move in the step before (heavy ball), dropped for a step where the noise "
-          "gauge rose; heavy noise on dense clouds goes in far fewer steps. In core only for now. "
-          "0 = off (the paper's steps). " + smooth_default("momentum") + ".",
+          "gauge (the automatic lambda) rose; heavy noise on dense clouds goes in far fewer steps. "
+          "In core only for now. 0 = off (the paper's steps). " + smooth_default("momentum") + ".",
           [&s](std::string_view v) { s.momentum = parse_double(v, "--momentum"); });
+  p.value("momentum-gate", "G",
+          "Momentum only in runs whose first step left at least G times the input's noise gauge "
+          "(G in [0, 1], dimensionless): light noise, which the first step mostly removes, gets "
+          "none. 0 = always. " + smooth_default("momentum_gate") + ".",
+          [&s](std::string_view v) { s.momentum_gate = parse_double(v, "--momentum-gate"); });
   p.value("lambda-factor", "F", "Multiplier of the automatic lambda (dimensionless). " + smooth_default("lambda_factor") + ".",
           [&s](std::string_view v) { s.flow.lambda_auto_factor = parse_double(v, "--lambda-factor"); });
   p.flag("constrain-normal",
