@@ -7,6 +7,7 @@
 //
 //   pointfair_default_run [--points N] [--noise PCT] [--mesh FILE.off] [--repeats R]
 //                         [--threads T] [--sizes N1,N2,...] [--cli PATH] [--jet-k K]
+//                         [--options "SMOOTH OPTIONS"]
 //
 // Without CGAL (POINTFAIR_QUALITY_CGAL=ON and libcgal-dev) only our side is timed.
 #include <sys/wait.h>
@@ -64,11 +65,11 @@ struct OurRun {
   int steps = 0, k = 0;
 };
 
-// One run of `cli smooth in out --json --quiet --threads T`.
+// One run of `cli smooth in out --json --quiet --threads T OPTIONS`.
 OurRun run_command(const std::string& cli, const fs::path& in, const fs::path& out, int threads,
-                   const fs::path& json) {
+                   const std::string& options, const fs::path& json) {
   const std::string command = cli + " smooth " + in.string() + " " + out.string() + " --json --quiet --threads " +
-                              std::to_string(threads) + " > " + json.string();
+                              std::to_string(threads) + (options.empty() ? "" : " " + options) + " > " + json.string();
   const auto t0 = Clock::now();
   const int status = std::system(command.c_str());
   OurRun r;
@@ -106,7 +107,7 @@ std::vector<std::size_t> parse_sizes(const std::string& text) {
 int main(int argc, char** argv) {
   std::size_t points = 1'000'000;
   double noise = 0.5;
-  std::string mesh, cli = POINTFAIR_CLI;
+  std::string mesh, cli = POINTFAIR_CLI, options;
   int repeats = 3, threads = 0, jet_k = 16;
   std::vector<std::size_t> sizes;
   for (int i = 1; i < argc; ++i) {
@@ -120,10 +121,11 @@ int main(int argc, char** argv) {
     else if (a == "--sizes" && has_value) sizes = parse_sizes(argv[++i]);
     else if (a == "--cli" && has_value) cli = argv[++i];
     else if (a == "--jet-k" && has_value) jet_k = std::atoi(argv[++i]);
+    else if (a == "--options" && has_value) options = argv[++i];
     else {
       std::fprintf(stderr,
                    "usage: %s [--points N] [--noise PCT] [--mesh FILE.off] [--repeats R] [--threads T] "
-                   "[--sizes N1,N2,...] [--cli PATH] [--jet-k K]\n",
+                   "[--sizes N1,N2,...] [--cli PATH] [--jet-k K] [--options \"SMOOTH OPTIONS\"]\n",
                    argv[0]);
       return 2;
     }
@@ -158,7 +160,7 @@ int main(int argc, char** argv) {
     std::map<std::string, std::vector<double>> stages;
     OurRun last;
     for (int r = 0; r < repeats; ++r) {
-      last = run_command(cli, in, dir / "out.ply", threads, dir / "run.json");
+      last = run_command(cli, in, dir / "out.ply", threads, options, dir / "run.json");
       ours.push_back(last.total);
       for (const auto& [name, s] : last.stage) stages[name].push_back(s);
 #if defined(POINTFAIR_HAVE_CGAL)
@@ -171,8 +173,12 @@ int main(int argc, char** argv) {
       ratios.push_back(ours.back() / jets.back());
 #endif
     }
-    std::printf("  ours (defaults: automatic k %d, %d steps, finish, placement): %.2f s end to end\n", last.k,
-                last.steps, median(ours));
+    if (options.empty())
+      std::printf("  ours (defaults: automatic k %d, %d steps, finish, placement): %.2f s end to end\n", last.k,
+                  last.steps, median(ours));
+    else
+      std::printf("  ours (defaults with %s: automatic k %d, %d steps): %.2f s end to end\n", options.c_str(), last.k,
+                  last.steps, median(ours));
     for (const char* s : {"read", "neighbors", "steps", "finish", "attributes", "write"})
       std::printf("    %-10s %8.2f s\n", s, median(stages[s]));
     if (!jets.empty()) {
@@ -187,7 +193,7 @@ int main(int argc, char** argv) {
       io::PointTable t;
       t.positions = noisy_sample(mesh, n, noise);
       io::write_points(dir / "size.ply", t);
-      const OurRun s = run_command(cli, dir / "size.ply", dir / "size_out.ply", threads, dir / "size.json");
+      const OurRun s = run_command(cli, dir / "size.ply", dir / "size_out.ply", threads, options, dir / "size.json");
       std::printf("    %10zu points: %.2f us/point end to end (steps %.2f, finish %.2f; %d steps, k %d)\n", n,
                   1e6 * s.total / static_cast<double>(n), 1e6 * s.stage.at("steps") / static_cast<double>(n),
                   1e6 * s.stage.at("finish") / static_cast<double>(n), s.steps, s.k);
