@@ -149,7 +149,7 @@ struct SmoothParams {
   /// Momentum only for slow runs (dimensionless, in [0, 1]; 0 = always): with lambda_1 the
   /// automatic lambda after the first step and lambda_0 the input's, a run whose lambda_1 <
   /// momentum_gate lambda_0 has no momentum. Light noise loses most of its gauge in the first
-  /// step (0.57-0.63 of it on the quality benchmark's cases at 0.1%), where momentum only
+  /// step (a 20K-point sphere and torus at 0.1% keep 0.57 and 0.63 of it), where momentum only
   /// overshoots (the sphere's RMS +42% at 0.1% without the gate); heavy noise on a dense cloud
   /// keeps 0.94-1.0 of it. 0.9 measured: docs/momentum.md.
   double momentum_gate = 0.9;
