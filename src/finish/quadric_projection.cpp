@@ -1,6 +1,7 @@
 #include "pointfair/finish/quadric_projection.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cassert>
 #include <cmath>
 #include <limits>
@@ -355,22 +356,35 @@ Vec3 placed_on_quadric(const Vec3& anchor, const Vec3& p, std::span<const Index>
 
 namespace {
 
-// The normals of rows [0, out.size()) of `rows`: row r is point first + r of `points`.
+// The normals of rows [0, out.size()) of `rows`: row r is point first + r of `points`. Four
+// rows at a time through the batched robust plane (robust_plane_fit.hpp), whose every plane is
+// the one-point fit_robust_plane's to the bit: their chains of square roots and divisions
+// overlap.
 void normals_of_rows(std::span<const Vec3> points, NeighborhoodsView rows, std::size_t first,
                      const QuadricProjectionParams& params, std::span<Vec3> out) {
+  constexpr std::size_t kLanes = 4;
   parallel_for(out.size(), [&](std::size_t begin, std::size_t end) {
-    std::vector<Vec3> offsets;
-    std::vector<double> weights, scratch;
-    for (std::size_t r = begin; r < end; ++r) {
-      const std::span<const Index> nb = rows.of(r);
-      const Vec3& p = points[first + r];
-      const std::size_t m = std::min<std::size_t>(nb.size(), static_cast<std::size_t>(params.normal_neighbors));
-      offsets.resize(m);
-      for (std::size_t j = 0; j < m; ++j) offsets[j] = points[nb[j]] - p;
-      weights.assign(m + 1, 0.0);
-      scratch.resize(m + 1);
-      const RobustPlane plane = fit_robust_plane(offsets, params.frame, weights, scratch);
-      out[r] = plane.valid ? plane.normal : Vec3::Zero();
+    std::array<std::vector<Vec3>, kLanes> offsets;
+    std::array<std::vector<double>, kLanes> weights, scratch;
+    for (std::size_t r0 = begin; r0 < end; r0 += kLanes) {
+      const std::size_t count = std::min(kLanes, end - r0);
+      std::span<const Vec3> lane_offsets[kLanes];
+      std::span<double> lane_weights[kLanes], lane_scratch[kLanes];
+      for (std::size_t l = 0; l < count; ++l) {
+        const std::span<const Index> nb = rows.of(r0 + l);
+        const Vec3& p = points[first + r0 + l];
+        const std::size_t m = std::min<std::size_t>(nb.size(), static_cast<std::size_t>(params.normal_neighbors));
+        offsets[l].resize(m);
+        for (std::size_t j = 0; j < m; ++j) offsets[l][j] = points[nb[j]] - p;
+        weights[l].assign(m + 1, 0.0);
+        scratch[l].resize(m + 1);
+        lane_offsets[l] = offsets[l];
+        lane_weights[l] = weights[l];
+        lane_scratch[l] = scratch[l];
+      }
+      RobustPlane planes[kLanes];
+      detail::fit_robust_planes<kLanes>(lane_offsets, count, params.frame, lane_weights, lane_scratch, planes);
+      for (std::size_t l = 0; l < count; ++l) out[r0 + l] = planes[l].valid ? planes[l].normal : Vec3::Zero();
     }
   }, 1024);
 }
