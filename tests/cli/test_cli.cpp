@@ -634,6 +634,23 @@ TEST_F(CliInfoTest, DescribesALasFileWithItsCrsAndTheKTheDefaultsChoose) {
   EXPECT_EQ(json_number_after(smoothed, "k"), k) << smoothed;
 }
 
+// Noise of a few sample spacings gets a hint at the options that need fewer steps; light
+// noise none.
+TEST_F(CliInfoTest, HeavyNoiseGetsTheHintOfFewerSteps) {
+  const auto info_of = [&](const std::string& name, double sigma) {
+    io::PointTable t;
+    t.positions = sample_sphere(6000, 1.0, 7).points;
+    add_noise(t.positions, sigma, 8);
+    io::write_points(dir_ / name, t);
+    const RunResult r = run("info " + (dir_ / name).string());
+    EXPECT_EQ(r.exit_code, 0) << r.err;
+    return r.out;
+  };
+  const std::string heavy = info_of("heavy.ply", 0.1), light = info_of("light.ply", 0.002);
+  EXPECT_NE(heavy.find("--momentum 0.5"), std::string::npos) << heavy;
+  EXPECT_EQ(light.find("--momentum"), std::string::npos) << light;
+}
+
 TEST_F(CliInfoTest, ReadsTheEpsgCodeOfGeoTiffKeys) {
   // GeoKeyDirectory: version 1.1.0, 2 keys; GTModelType projected, ProjectedCSType 32633.
   std::string keys;
