@@ -173,12 +173,9 @@ int main(int argc, char** argv) {
       ratios.push_back(ours.back() / jets.back());
 #endif
     }
-    if (options.empty())
-      std::printf("  ours (defaults: automatic k %d, %d steps, finish, placement): %.2f s end to end\n", last.k,
-                  last.steps, median(ours));
-    else
-      std::printf("  ours (defaults with %s: automatic k %d, %d steps): %.2f s end to end\n", options.c_str(), last.k,
-                  last.steps, median(ours));
+    const std::string run_name = options.empty() ? "defaults" : "defaults with " + options;
+    std::printf("  ours (%s: automatic k %d, %d steps%s): %.2f s end to end\n", run_name.c_str(), last.k, last.steps,
+                options.empty() ? ", finish, placement" : "", median(ours));
     for (const char* s : {"read", "neighbors", "steps", "finish", "attributes", "write"})
       std::printf("    %-10s %8.2f s\n", s, median(stages[s]));
     if (!jets.empty()) {

@@ -211,8 +211,8 @@ SmoothReport run_flow(std::vector<Vec3>& positions, const SmoothParams& params, 
       }
     }
     const StepMomentum momentum{momentum_of_step(params, step, rebuilt, lambda_rose, lambdas), next};
-    if (params.momentum > 0.0 && momentum_of_step(params, step, rebuilt, false, lambdas) > 0.0 && lambda_rose)
-      ++report.momentum_restarts;
+    // A restart: the step would have had momentum but for the rise.
+    if (lambda_rose && momentum_of_step(params, step, rebuilt, false, lambdas) > 0.0) ++report.momentum_restarts;
     StepStats stats;
     if (updated.empty()) {
       stats = euler_step(positions, neighborhoods, {}, params.flow, report.lambda, next);

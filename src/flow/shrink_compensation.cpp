@@ -62,9 +62,7 @@ void to_updates(std::span<const Vec3> current, std::span<Vec3> updated) {
 void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> updates,
                         NeighborhoodsView neighborhoods, std::span<const Index> rows, double beta,
                         std::span<Vec3> next) {
-  compensate_rows(
-      current, [&](std::size_t j) -> const Vec3& { return updates[j]; }, updates.size(), neighborhoods, rows, beta,
-      StepMomentum{}, next);
+  compensate_updates(current, updates, neighborhoods, rows, beta, StepMomentum{}, next);
 }
 
 void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> updates,
