@@ -210,7 +210,7 @@ SmoothReport run_flow(std::vector<Vec3>& positions, const SmoothParams& params, 
         break;
       }
     }
-    const StepMomentum momentum{momentum_of_step(params, step, rebuilt, lambda_rose, lambdas), next};
+    const StepMomentum momentum{momentum_of_step(params, step, rebuilt, lambda_rose, lambdas), next, {}};
     // A restart: the step would have had momentum but for the rise.
     if (lambda_rose && momentum_of_step(params, step, rebuilt, false, lambdas) > 0.0) ++report.momentum_restarts;
     StepStats stats;

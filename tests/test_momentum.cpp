@@ -39,7 +39,7 @@ TEST(Momentum, CompensatedRowsMatchThePlainFormulaAndMayOverwriteThePrevious) {
   to_updates(current, updates);
   const double m = 0.7;
   std::vector<Vec3> next(current.size());
-  compensate_updates(current, updates, nb, {}, 1.0, StepMomentum{m, previous}, next);
+  compensate_updates(current, updates, nb, {}, 1.0, StepMomentum{m, previous, {}}, next);
   double worst = 0.0;
   for (std::size_t i = 0; i < current.size(); ++i) {
     Vec3 sum = Vec3::Zero();
@@ -52,31 +52,31 @@ TEST(Momentum, CompensatedRowsMatchThePlainFormulaAndMayOverwriteThePrevious) {
   EXPECT_LT(worst, 1e-14);
   // The double-buffered steps keep the previous positions in the buffer they write.
   std::vector<Vec3> in_place = previous;
-  compensate_updates(current, updates, nb, {}, 1.0, StepMomentum{m, in_place}, in_place);
+  compensate_updates(current, updates, nb, {}, 1.0, StepMomentum{m, in_place, {}}, in_place);
   EXPECT_TRUE(test::bitwise_equal(std::span<const Vec3>(in_place), std::span<const Vec3>(next)));
   // No momentum: the compensated step as before, to the bit.
   std::vector<Vec3> plain(current.size()), none(current.size());
   compensate_updates(current, updates, nb, {}, 1.0, plain);
-  compensate_updates(current, updates, nb, {}, 1.0, StepMomentum{0.0, previous}, none);
+  compensate_updates(current, updates, nb, {}, 1.0, StepMomentum{0.0, previous, {}}, none);
   EXPECT_TRUE(test::bitwise_equal(std::span<const Vec3>(plain), std::span<const Vec3>(none)));
-  EXPECT_THROW(compensate_updates(current, updates, nb, {}, 1.0, StepMomentum{1.0, previous}, none), ParamError);
+  EXPECT_THROW(compensate_updates(current, updates, nb, {}, 1.0, StepMomentum{1.0, previous, {}}, none), ParamError);
 }
 
 TEST(Momentum, UncompensatedRowsAddTheMoveBefore) {
   const std::vector<Vec3> current = heavy_noise_sphere(200, 7), updated = heavy_noise_sphere(200, 9),
                           previous = heavy_noise_sphere(200, 11);
   std::vector<Vec3> next(current.size());
-  add_momentum(current, updated, {}, StepMomentum{0.5, previous}, next);
+  add_momentum(current, updated, {}, StepMomentum{0.5, previous, {}}, next);
   for (std::size_t i = 0; i < next.size(); ++i)
     EXPECT_LT((next[i] - (updated[i] + 0.5 * (current[i] - previous[i]))).norm(), 1e-15);
   // Rows of other points (rows[r] is row r's point), the previous positions overwritten.
   const std::vector<Index> rows{5, 0, 17};
   std::vector<Vec3> some{previous[0], previous[1], previous[2]};
   const std::vector<Vec3> some_updated{updated[0], updated[1], updated[2]};
-  add_momentum(current, some_updated, rows, StepMomentum{0.5, some}, some);
+  add_momentum(current, some_updated, rows, StepMomentum{0.5, some, {}}, some);
   for (std::size_t r = 0; r < rows.size(); ++r)
     EXPECT_EQ(some[r], Vec3(some_updated[r] + 0.5 * (current[rows[r]] - previous[r])));
-  add_momentum(current, updated, {}, StepMomentum{0.0, {}}, next);
+  add_momentum(current, updated, {}, StepMomentum{0.0, {}, {}}, next);
   EXPECT_TRUE(test::bitwise_equal(std::span<const Vec3>(next), std::span<const Vec3>(updated)));
 }
 

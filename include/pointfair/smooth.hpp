@@ -143,8 +143,9 @@ struct SmoothParams {
   /// the automatic lambda (the noise gauge) rose since the step before, the step drops the
   /// momentum (a restart: the flow overshot), as it does on its first step and after a
   /// rebuild; and where the first (plain) step lowered the gauge below momentum_gate times the
-  /// input's, the noise is fast to go and the run has none (momentum_of_step). In core only for
-  /// now (smooth_out_of_core refuses it); measured in docs/momentum.md.
+  /// input's, the noise is fast to go and the run has none (momentum_of_step). Out of core
+  /// too, to the same bits (the run file keeps every point's last move); measured in
+  /// docs/momentum.md.
   double momentum = 0.0;
   /// Momentum only for slow runs (dimensionless, in [0, 1]; 0 = always): with lambda_1 the
   /// automatic lambda after the first step and lambda_0 the input's, a run whose lambda_1 <

@@ -9,6 +9,18 @@ namespace pointfair {
 
 namespace {
 
+// A momentum's rows: one previous position or one last move each.
+void require_momentum_rows(const StepMomentum& momentum, std::size_t n) {
+  require(momentum.m >= 0.0 && momentum.m < 1.0, "momentum must be in [0, 1)");
+  require(momentum.m == 0.0 || (momentum.previous.empty() ? momentum.moves.size() : momentum.previous.size()) == n,
+          "momentum: one previous position (or last move) per row");
+}
+
+// Row r's last move p(n) - p(n-1), p its current position.
+inline Vec3 last_move(const StepMomentum& momentum, std::size_t r, const Vec3& p) {
+  return momentum.previous.empty() ? momentum.moves[r] : Vec3(p - momentum.previous[r]);
+}
+
 // The compensated step of every row, with update(j) the flow's own update of point j.
 template <class Update>
 void compensate_rows(std::span<const Vec3> current, const Update& update, std::size_t size,
@@ -21,7 +33,7 @@ void compensate_rows(std::span<const Vec3> current, const Update& update, std::s
   require(!rows.empty() || current.size() == n, "compensate_shrinkage: one neighbourhood row per point");
   require(next.size() == n, "compensate_shrinkage: one output per neighbourhood row");
   const double m = momentum.m;
-  require(m == 0.0 || momentum.previous.size() == n, "compensate_shrinkage: one previous position per row");
+  require_momentum_rows(momentum, n);
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t r = begin; r < end; ++r) {
       const std::size_t i = rows.empty() ? r : rows[r];
@@ -37,7 +49,7 @@ void compensate_rows(std::span<const Vec3> current, const Update& update, std::s
       Vec3 step = own - beta * mean;
       const double limit = own.squaredNorm(), length = step.squaredNorm();
       if (length > limit) step *= std::sqrt(limit / length);
-      next[r] = m == 0.0 ? Vec3(current[i] + step) : Vec3((current[i] + step) + m * (current[i] - momentum.previous[r]));
+      next[r] = m == 0.0 ? Vec3(current[i] + step) : Vec3((current[i] + step) + m * last_move(momentum, r, current[i]));
     }
   }, 2048);
 }
@@ -68,7 +80,6 @@ void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> upd
 void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> updates,
                         NeighborhoodsView neighborhoods, std::span<const Index> rows, double beta,
                         const StepMomentum& momentum, std::span<Vec3> next) {
-  require(momentum.m >= 0.0 && momentum.m < 1.0, "momentum must be in [0, 1)");
   compensate_rows(
       current, [&](std::size_t j) -> const Vec3& { return updates[j]; }, updates.size(), neighborhoods, rows, beta,
       momentum, next);
@@ -78,15 +89,26 @@ void add_momentum(std::span<const Vec3> current, std::span<const Vec3> updated, 
                   const StepMomentum& momentum, std::span<Vec3> next) {
   const std::size_t n = next.size();
   const double m = momentum.m;
-  require(m >= 0.0 && m < 1.0, "momentum must be in [0, 1)");
-  require(updated.size() == n && (m == 0.0 || momentum.previous.size() == n), "add_momentum: one row each");
+  require_momentum_rows(momentum, n);
+  require(updated.size() == n, "add_momentum: one updated position per row");
   require(rows.empty() || rows.size() == n, "add_momentum: rows must match the output");
   require(!rows.empty() || current.size() == n, "add_momentum: one current position per row");
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t r = begin; r < end; ++r) {
       const Vec3& p = current[rows.empty() ? r : rows[r]];
-      next[r] = m == 0.0 ? updated[r] : Vec3(updated[r] + m * (p - momentum.previous[r]));
+      next[r] = m == 0.0 ? updated[r] : Vec3(updated[r] + m * last_move(momentum, r, p));
     }
+  }, 16384);
+}
+
+void last_moves(std::span<const Vec3> current, std::span<const Vec3> next, std::span<const Index> rows,
+                std::span<Vec3> moves) {
+  const std::size_t n = moves.size();
+  require(next.size() == n, "last_moves: one next position per move");
+  require(rows.empty() || rows.size() == n, "last_moves: rows must match the moves");
+  require(!rows.empty() || current.size() >= n, "last_moves: one current position per move");
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t r = begin; r < end; ++r) moves[r] = next[r] - current[rows.empty() ? r : rows[r]];
   }, 16384);
 }
 

@@ -23,7 +23,6 @@ fs::path partial_name(const fs::path& output) {
 OutOfCoreReport smooth_out_of_core(const fs::path& input, const fs::path& output, const SmoothParams& params,
                                    const OutOfCoreOptions& options) {
   require(!params.coarse, "the coarse level (--coarse-level) runs in core only: give a larger --memory-budget or leave it off");
-  require(params.momentum == 0.0, "momentum (--momentum) runs in core only: give a larger --memory-budget or leave it off");
   detail::Run run(input, output, params, options);
   return run.run();
 }

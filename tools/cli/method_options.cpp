@@ -143,7 +143,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Momentum, M in [0, 1) (dimensionless; beyond the paper): each step also moves a point by "
           "M times its move in the step before (heavy ball), dropped for a step where the noise "
           "gauge (the automatic lambda) rose; heavy noise on dense clouds goes in far fewer steps. "
-          "In core only for now. 0 = off (the paper's steps). " + smooth_default("momentum") + ".",
+          "0 = off (the paper's steps). " + smooth_default("momentum") + ".",
           [&s](std::string_view v) { s.momentum = parse_double(v, "--momentum"); });
   p.value("momentum-gate", "G",
           "Momentum only in runs whose first step left at least G times the input's noise gauge "

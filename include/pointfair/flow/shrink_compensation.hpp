@@ -46,15 +46,24 @@ void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> upd
 /// The momentum of a step (SmoothParams::momentum): m, and the step-(n-1) positions of the
 /// rows, previous[r] for next[r]. `previous` may be `next` itself (each row is read before it
 /// is written), which is how the double-buffered steps hold them.
+/// Or, where `previous` is empty, the rows' last moves themselves, moves[r] = p(n) - p(n-1)
+/// as last_moves computed them (the same bits as current - previous): how the out-of-core
+/// run keeps them.
 struct StepMomentum {
   double m = 0.0;
   std::span<const Vec3> previous;
+  std::span<const Vec3> moves;
 };
 
 /// compensate_updates with momentum: next[r] = (current[i] + c_r) + m (current[i] - previous[r]).
 void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> updates,
                         NeighborhoodsView neighborhoods, std::span<const Index> rows, double beta,
                         const StepMomentum& momentum, std::span<Vec3> next);
+
+/// moves[r] = next[r] - current[i] for the rows of a step (point rows[r]; rows empty: row r
+/// is point r): the moves StepMomentum::moves reads on the step after.
+void last_moves(std::span<const Vec3> current, std::span<const Vec3> next, std::span<const Index> rows,
+                std::span<Vec3> moves);
 
 /// An uncompensated step with momentum: next[r] = updated[r] + m (current[i] - previous[r]),
 /// with updated[r] the euler_step output of row r (point rows[r]; rows empty: row r is point r).

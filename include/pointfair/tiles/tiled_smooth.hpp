@@ -77,7 +77,8 @@ struct OutOfCoreOptions {
   /// its neighbour lists (every point its step-n+h position depends on; the 2h-ring closure
   /// with SmoothParams::shrink_compensation), to cut the I/O of halos and lists. Needs a lambda
   /// that stays fixed between steps (a fixed lambda, or one measured once); blocks end at
-  /// rebuilds. 1: one step per load. Results do not depend on it.
+  /// rebuilds, and with SmoothParams::momentum a block is one step (a point's last move is
+  /// known only for the step after it). 1: one step per load. Results do not depend on it.
   int temporal_block = 1;
   /// Streamed steps (single process, one step per load, positions not held) keep each tile's
   /// halo in a scratch file beside the output, written by the tiles that hold its points, and
@@ -155,6 +156,9 @@ struct OutOfCoreReport {
   std::uint64_t list_rows_read = 0;
   /// Neighbourhood rebuilds done by this call (SmoothParams::rebuild_interval).
   int rebuilds = 0;
+  /// Steps of this call whose momentum was dropped because the noise gauge rose
+  /// (SmoothParams::momentum, SmoothReport::momentum_restarts).
+  int momentum_restarts = 0;
   /// Quadric finish passes done in total (SmoothParams::finish).
   int finish_passes = 0;
   /// Why the flow stopped, where this call ran its last step or found the automatic stop

@@ -1,5 +1,6 @@
 #include "block_slot.hpp"
 
+#include <cassert>
 #include <span>
 #include <utility>
 
@@ -8,9 +9,10 @@
 
 namespace pointfair::tiles::detail {
 
-void BlockSlot::compute(const FlowParams& flow, double lambda, double beta) {
+void BlockSlot::compute(const FlowParams& flow, double lambda, double beta, double m, bool keep_moves) {
   const std::size_t rings = beta > 0.0 ? 2 : 1;
   const std::size_t d = views.size(), h = d / rings;
+  assert((m == 0.0 && !keep_moves) || h == 1);  // a point's last move is known for one step
   const auto ids_of = [&](std::size_t l) {
     const std::size_t begin = l == 0 ? 0 : level_end[l - 1];
     return std::span<const Index>(ids.data() + begin, level_end[l] - begin);
@@ -34,6 +36,7 @@ void BlockSlot::compute(const FlowParams& flow, double lambda, double beta) {
     // range where their lists lie one after the other.
     std::vector<Vec3>& out = beta > 0.0 ? updated : next;
     degenerate[j - 1] = ids_of(0).empty() ? 0 : euler_step(cur, views[0], ids_of(0), flow, lambda, part(out, 0)).degenerate;
+    if (m > 0.0 && beta == 0.0) add_momentum(cur, part(out, 0), ids_of(0), moves.momentum(m), part(out, 0));
     if (all.stride != 0 && reach >= 1) {
       const std::size_t b = level_end[0], e = level_end[reach];
       if (e > b)
@@ -49,10 +52,11 @@ void BlockSlot::compute(const FlowParams& flow, double lambda, double beta) {
       for (std::size_t l = 0; l <= last; ++l)
         if (!ids_of(l).empty())
           compensate_updates(cur, std::span<const Vec3>(updated.data(), cur.size()), views[l], ids_of(l), beta,
-                             part(next, l));
+                             l == 0 ? moves.momentum(m) : StepMomentum{}, part(next, l));
     }
     // Levels 0 .. last now hold step j in `next`; the later steps read no level beyond
     // `last` (they reach one level less each), so the buffers trade places.
+    if (keep_moves) moves.keep(std::span<const Vec3>(cur).first(own), std::span<const Vec3>(next).first(own));
     std::swap(cur, next);
   }
   if (!order.empty() && !write_listed)

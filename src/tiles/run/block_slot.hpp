@@ -9,6 +9,7 @@
 #include "pointfair/neighbors/neighborhoods.hpp"
 #include "row_map.hpp"
 #include "scratch_file.hpp"
+#include "tile_moves.hpp"
 #include "vector_bytes.hpp"
 
 namespace pointfair::tiles::detail {
@@ -49,6 +50,8 @@ struct BlockSlot {
   // A block whose source holds the tile in that order (written so by the previous block):
   // read straight into `cur`. One that writes it so: `cur` is the result, `by_row` unused.
   bool read_listed = false, write_listed = false;
+  // With momentum (blocks of one step): the tile's last moves, in the order of `cur`.
+  TileMoves moves;
   // bytes() as the writing thread last measured it, between the slot's compute stages: the
   // compute trades `cur` and `next`, so the slot's vectors are not read while it runs.
   std::uint64_t accounted = 0;
@@ -58,15 +61,16 @@ struct BlockSlot {
                       detail::bytes(ids) +
                       detail::bytes(degenerate) + detail::bytes(rows) + detail::bytes(sorted_rows) +
                       detail::bytes(sorted_local) + detail::bytes(global) + detail::bytes(counts) + detail::bytes(scratch) + ring_local.bytes() +
-                      detail::bytes(order) + detail::bytes(by_row) + mapped.size() + detail::bytes(views);
+                      detail::bytes(order) + detail::bytes(by_row) + moves.bytes() + mapped.size() + detail::bytes(views);
     for (const Neighborhoods& l : lists) b += detail::bytes(l.indices) + detail::bytes(l.counts);
     return b;
   }
   std::size_t points() const { return level_end.back(); }
 
   // `beta`: SmoothParams::shrink_compensation (0: plain steps); the block has d = h levels
-  // of lists, or 2 h when compensated.
-  void compute(const FlowParams& flow, double lambda, double beta);
+  // of lists, or 2 h when compensated. A block of one step may have momentum m (from
+  // `moves`), and keep its own moves there for the next step (`keep_moves`).
+  void compute(const FlowParams& flow, double lambda, double beta, double m = 0.0, bool keep_moves = false);
   // The tile's positions after the block, in row order.
   const Vec3* tile_rows() const { return order.empty() || write_listed ? cur.data() : by_row.data(); }
 };

@@ -46,6 +46,7 @@ PipelineStages Run::block_stages(StepPlan& plan, StepWork& work, OutOfCoreReport
     BlockSlot& b = work.block_slots[slot];
     read_block(work.tiles[item], block_depth(plan.h), *plan.source, b, ring_from, listed_in);
     b.write_listed = plan.block_list_order;
+    read_moves(plan, b.tile, b.order, b.moves);
     // The plain updates of a compensated step, counted with the rest of the block.
     if (compensated()) b.updated.resize(b.cur.size());
     largest_local_ = std::max<std::uint64_t>(largest_local_, b.cur.size());
@@ -53,13 +54,15 @@ PipelineStages Run::block_stages(StepPlan& plan, StepWork& work, OutOfCoreReport
     account(block_slots_bytes(work) + bytes(work.identity));
   };
   stages.compute = [this, &plan, &work](std::size_t slot) {
-    work.block_slots[slot].compute(params_.flow, plan.lambda, params_.shrink_compensation);
+    work.block_slots[slot].compute(params_.flow, plan.lambda, params_.shrink_compensation, plan.momentum,
+                                   plan.writes_moves);
   };
   stages.write = [this, &plan, &work](std::size_t, std::size_t slot) {
     BlockSlot& b = work.block_slots[slot];
     const std::uint64_t begin = tiles_.offsets[b.tile], rows = tiles_.rows(b.tile);
     const Vec3* const result = b.tile_rows();
     plan.target->write_rows(begin, rows, result->data(), h5::Transfer::Collective);
+    write_moves(plan, b.tile, b.order, b.moves);
     file().start_writeback();
     if (plan.scratch_block) ring_scratch_->write(plan.written_halos, b.tile, b.cur.data());
     b.mapped = {};  // the tile's lists, mapped: unmapped as soon as it is done

@@ -41,10 +41,12 @@ void Run::hold_positions() {
     halo_total += nb->halo_rows.size();
   }
   const std::uint64_t copies = compensated() ? 3 : 2;
+  // With momentum, the last moves of every tile in flight (TileMoves: two copies of its rows).
+  const std::uint64_t moves = momentum_on() ? 2 * (my_end_row() - my_first_row()) * sizeof(Vec3) : 0;
   const bool index_sample = ranks_->size() == 1 && auto_lambda_on() && params_.lambda_every_step;
   const std::uint64_t need = copies * total * sizeof(Vec3) + halo_total * sizeof(std::uint64_t) + bytes(base) +
                              (my_end_row() - my_first_row()) * sizeof(Index) +  // the inverse orders below
-                             (index_sample ? gather_rows_.size() * sizeof(std::uint64_t) : 0);
+                             (index_sample ? gather_rows_.size() * sizeof(std::uint64_t) : 0) + moves;
   able = able && persistent_bytes() + need + slots_room() <= options_.memory_budget;
   // Every rank holds, or none: the steps' commit records (list order or not) and the
   // collective writes of to_row_order are shared.
@@ -139,6 +141,7 @@ PipelineStages Run::held_stages(StepPlan& plan, StepWork& work) {
     const std::vector<std::uint64_t>& from = held_halo_[s.tile];
     if (plan.list_order_step) free_vector(s.next);  // the step is written from the held buffer
     else s.next.resize(rows);
+    read_moves(plan, s.tile, s.nb->order, s.moves);
     largest_local_ = std::max<std::uint64_t>(largest_local_, rows + from.size());
     account(step_slots_bytes(work));
   };
@@ -171,13 +174,15 @@ PipelineStages Run::held_stages(StepPlan& plan, StepWork& work) {
       plan.updated_ready = true;
       s.stats = plan.plain_stats[s.tile];
       compensate_updates(local, std::span<const Vec3>(held_updated_.data() + base, rows + from.size()), s.nb->local,
-                         identity, params_.shrink_compensation, out);
+                         identity, params_.shrink_compensation, s.moves.momentum(plan.momentum), out);
     } else {
       // The halo from the tiles holding it, here on the compute threads (step-n positions:
       // nothing writes them now; each tile's halo has its own place in the held buffer).
       copy_halo(cur, s.tile);
       s.stats = euler_step(local, s.nb->local, identity, params_.flow, plan.lambda, out);
+      if (plan.momentum > 0.0) add_momentum(local, out, identity, s.moves.momentum(plan.momentum), out);
     }
+    if (plan.writes_moves) s.moves.keep(local.first(rows), out);
     if (scatter_on_compute && !plan.list_order_step) to_file_order(s);
   };
   stages.write = [this, &plan, &work, to_file_order, scatter_on_compute](std::size_t, std::size_t slot) {
@@ -193,6 +198,9 @@ PipelineStages Run::held_stages(StepPlan& plan, StepWork& work) {
       if (!scatter_on_compute) to_file_order(s);
       plan.target->write_rows(begin, rows, s.next.data()->data(), h5::Transfer::Collective);
     }
+    write_moves(plan, s.tile, s.nb->order, s.moves);
+    free_vector(s.moves.by_row);  // counted as the tile's rows (hold_positions), not as a slot's
+    free_vector(s.moves.listed);
     if (!plan.lag_writes) file().start_writeback();
     if (plan.gather_sample && held_sample_.empty())
       gather_sample_rows(begin, rows, [&](std::uint64_t r) {

@@ -189,7 +189,7 @@ HaloScratch* Run::streamed_halos() {
 }
 
 int Run::block_length(int step) const {
-  int h = std::min(std::max(1, options_.temporal_block), params_.steps - step);
+  int h = std::min(temporal_block(), params_.steps - step);
   // A block never spans a rebuild: the lists are fixed inside it.
   if (params_.rebuild_interval > 0)
     h = std::min(h, params_.rebuild_interval - step % params_.rebuild_interval);
@@ -569,16 +569,19 @@ std::size_t Run::pipeline_slots(std::uint64_t fixed) {
   // first (the halo), with lists for levels 0 .. d - 1: positions (two buffers, three when
   // compensated, and the scratch of the rings' reads), rows and sorted rows, the lists and
   // the container rows of one level's lists while it is read.
-  const std::uint64_t d = blocks() ? static_cast<std::uint64_t>(block_depth(std::max(1, options_.temporal_block))) : 0;
+  const std::uint64_t d = blocks() ? static_cast<std::uint64_t>(block_depth(temporal_block())) : 0;
   const std::uint64_t list_bytes = static_cast<std::uint64_t>(k()) * sizeof(Index) + sizeof(std::uint16_t);
   const std::uint64_t per_local = (compensated() ? 3 : 2) * sizeof(Vec3) + 2 * sizeof(std::uint64_t) + sizeof(Index);
   const std::uint64_t per_listed = sizeof(Vec3) + sizeof(Index) + 2 * list_bytes;
   const std::uint64_t per_ring = RowMap::kBytesPerRow;  // a ring row's entry in BlockSlot::ring_local
+  // With momentum, a tile's last moves as read and in the order of its positions.
+  const std::uint64_t per_moved = momentum_on() ? 2 * sizeof(Vec3) : 0;
   slot_estimate_ = 0;
   for (std::size_t t = first_tile_; t < end_tile_; ++t) {
     const std::uint64_t rows = tiles_.rows(t), h = t < halo.size() ? halo[t] : rows;
-    slot_estimate_ = std::max(slot_estimate_, d > 0 ? (rows + d * h) * per_local + (rows + (d - 1) * h) * per_listed + d * h * per_ring
-                                                    : rows * per_row + h * (sizeof(Vec3) + sizeof(std::uint64_t)));
+    slot_estimate_ = std::max(slot_estimate_, rows * per_moved +
+                                                  (d > 0 ? (rows + d * h) * per_local + (rows + (d - 1) * h) * per_listed + d * h * per_ring
+                                                         : rows * per_row + h * (sizeof(Vec3) + sizeof(std::uint64_t))));
   }
   // As many slots as asked for, as long as they fit next to what the run keeps (with half an
   // estimate of margin: a slot's vectors keep the capacity of the largest tile it held).

@@ -182,6 +182,8 @@ void Run::create(const fs::path& partial, const std::string& digest) {
                    early);
   f.create_dataset(positions_buffer(0), h5::Type::Float64, n_, 3, rows);
   f.create_dataset(positions_buffer(1), h5::Type::Float64, n_, 3, rows);
+  if (momentum_on())
+    for (const int parity : {0, 1}) f.create_dataset(moves_buffer(parity), h5::Type::Float64, n_, 3, rows);
   if (!options_.neighbor_reference.empty()) {
     f.create_dataset(kReferencePositions, h5::Type::Float64, n_, 3, rows);
     f.set_attribute(layout::run, "neighbors_from", options_.neighbor_reference.filename().string());

@@ -49,6 +49,7 @@
 #include "scratch_file.hpp"
 #include "row_map.hpp"
 #include "block_slot.hpp"
+#include "tile_moves.hpp"
 #include "tile_lists.hpp"
 #include "vector_bytes.hpp"
 
@@ -99,6 +100,10 @@ inline constexpr const char* kLocalOrder = "/run/neighbors/local_order";
 inline constexpr const char* kStopLambda = "/run/finish_stop_lambda";
 
 inline std::string positions_buffer(int parity) { return "/run/positions_" + std::to_string(parity); }
+// The momentum's last moves of every point before step `step` (SmoothParams::momentum), in row
+// order: step s reads the buffer of s and writes that of s + 1, so that a step killed before
+// its commit leaves the moves it read for the step done again.
+inline std::string moves_buffer(int step) { return "/run/moves_" + std::to_string(step % 2); }
 
 // Every parameter that changes the result, as one line: stored in the run and compared on
 // --resume.
@@ -119,6 +124,7 @@ struct StepSlot {
   // (row order) and moved into `local`; the step writes `next`, moved back into the first
   // rows of `local` in row order.
   std::vector<Vec3> local, next;
+  TileMoves moves;  // with momentum: the tile's last moves, in the order of `local`
   StepStats stats;
   const std::vector<Vec3>& result() const { return nb->order.empty() ? next : local; }
 };
@@ -183,6 +189,11 @@ struct StepPlan {
   // Degenerate points per step of the block; of a plain step.
   std::vector<std::size_t> block_degenerate;
   std::size_t degenerate = 0;
+  // Its momentum (momentum_of_step), and whether it writes its moves for the next step: the
+  // datasets it reads them from and writes them to.
+  double momentum = 0.0;
+  bool writes_moves = false;
+  std::optional<h5::Dataset> moves_source, moves_target;
   // A compensated held step's plain updates (held_step.cpp), per tile, once made.
   std::vector<StepStats> plain_stats;
   bool updated_ready = false;
@@ -281,6 +292,19 @@ class Run {
   double lambda_at_start(int start, bool every_step);
   // The lambdas of the steps before `start`, from the step log (for the automatic stop).
   std::vector<double> logged_lambdas(int start);
+  // Momentum out of core (momentum_step.cpp). The lambdas momentum_of_step reads, as smooth()
+  // keeps them (measured before step 0, then before each step that measures one), of the
+  // steps before `start` from the step log; then those of each step as it comes (true where
+  // the lambda rose).
+  std::vector<double> logged_flow_lambdas(int start);
+  bool note_flow_lambda(int step, double lambda, std::vector<double>& lambdas) const;
+  // The step's momentum and moves (StepPlan::momentum, writes_moves); counts a restart.
+  void plan_momentum(StepPlan& plan, bool lambda_rose, std::span<const double> lambdas, OutOfCoreReport& report);
+  // Tile t's last moves before the step into moves.listed, in the order `order` gives its
+  // points (none where the step has no momentum).
+  void read_moves(const StepPlan& plan, std::size_t t, std::span<const Index> order, TileMoves& moves) const;
+  // The step's moves of tile t (moves.listed, in `order`) into the run file, for the next step.
+  void write_moves(StepPlan& plan, std::size_t t, std::span<const Index> order, TileMoves& moves);
   StepWork start_step_work(OutOfCoreReport& report);
   // The neighbourhoods rebuilt before `step`, and what depends on them.
   void rebuild_for(int step, StepWork& work, OutOfCoreReport& report, double& lambda, bool every_step);
@@ -346,10 +370,14 @@ class Run {
            (params_.stop_lambda_ratio > 0.0 || params_.stop_plateau > 0.0);
   }
   bool compensated() const { return params_.shrink_compensation > 0.0; }
+  bool momentum_on() const { return params_.momentum > 0.0; }
   // Whether `v` holds on any / on every rank (collective when there are several).
   bool on_any_rank(bool v) const { return ranks_->size() > 1 ? ranks_->sum(v ? 1 : 0) > 0 : v; }
   bool on_every_rank(bool v) const { return !on_any_rank(!v); }
-  bool temporal_blocks() const { return options_.temporal_block > 1; }
+  // Steps per temporal block: OutOfCoreOptions::temporal_block, 1 with momentum (a point's
+  // last move is known only for the step after it).
+  int temporal_block() const { return momentum_on() ? 1 : std::max(1, options_.temporal_block); }
+  bool temporal_blocks() const { return temporal_block() > 1; }
   // Steps load a tile with the rings of its lists' closure (BlockSlot) rather than one halo:
   // temporal blocks, compensated steps unless the positions are held in memory (then a
   // compensated step is two passes over the held tiles, each with its one halo), and plain

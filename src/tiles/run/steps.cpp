@@ -32,6 +32,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
   // steps before `start` from the step log, so that a resumed run stops where an
   // uninterrupted one does.
   std::vector<double> lambdas = logged_lambdas(start);
+  std::vector<double> flow_lambdas = momentum_on() ? logged_flow_lambdas(start) : std::vector<double>{};
   for (int step = start; step < params_.steps;) {
     if (rebuild_due(step) && state_[kNeighborsStep] != step) {
       finish_commit_timed(work, report);
@@ -48,6 +49,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
         t0 = Clock::now();
       }
     }
+    const bool lambda_rose = momentum_on() && note_flow_lambda(step, lambda, flow_lambdas);
     if (stops_automatically()) {
       lambdas.push_back(lambda);
       if (const std::optional<StopReason> reason = stop_reason(params_, lambdas)) {
@@ -60,6 +62,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       }
     }
     StepPlan plan = plan_step(step, lambda, committed_here, every_step);
+    plan_momentum(plan, lambda_rose, flow_lambdas, report);
     PipelineStages stages = blocks()   ? block_stages(plan, work, report, t0)
                             : holding_ ? held_stages(plan, work)
                                        : streamed_stages(plan, work);
@@ -214,7 +217,10 @@ void Run::run_step_pipeline(StepPlan& plan, StepWork& work, PipelineStages stage
   if (plan.halos != nullptr) scratch_holds_[static_cast<std::size_t>(plan.written_halos)] = positions_buffer(plan.written_halos);
   if (plan.scratch_block) ring_holds_[static_cast<std::size_t>(plan.written_halos)] = positions_buffer(plan.written_halos);
   // Collective writes: as many per rank as the rank with the most tiles.
-  for (std::uint64_t w = my_tiles(); w < work.writes; ++w) plan.target->write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
+  for (std::uint64_t w = my_tiles(); w < work.writes; ++w) {
+    plan.target->write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
+    if (plan.writes_moves) plan.moves_target->write_rows<double>(0, 0, nullptr, h5::Transfer::Collective);
+  }
   if (!blocks()) plan.block_degenerate[0] = plan.degenerate;
   if (plan.gather_sample && ranks_->size() > 1) {
     // Each rank updated the sample's positions in its own tiles: exchange them.
@@ -292,6 +298,8 @@ std::uint64_t Run::step_slots_bytes(const StepWork& work) const {
   std::uint64_t total = bytes(work.identity);
   for (const StepSlot& s : work.slots) {
     total += bytes(s.local) + bytes(s.next) + bytes(s.slot_of) + (s.own ? s.own->bytes() : 0);
+    // Held, the moves count with the positions (held_bytes_): every tile may be in flight.
+    if (!holding_) total += s.moves.bytes();
     if (s.nb && s.nb != s.own && !(caching_ && cache_[s.tile] == s.nb)) total += s.nb->bytes();
   }
   return total;

@@ -26,6 +26,7 @@ PipelineStages Run::streamed_stages(StepPlan& plan, StepWork& work) {
     read_tile_positions(s.tile, *s.nb, *plan.source, s.local, s.next, false, halos_from, s.read_in_list_order);
     rows_read_ += s.local.size();
     s.next.resize(tiles_.rows(s.tile));
+    read_moves(plan, s.tile, s.nb->order, s.moves);
     // Sized here, not by the compute: this thread reads every slot's vectors (step_slots_bytes).
     if (plan.streamed_list_order && plan.gather_sample && !s.nb->order.empty()) s.slot_of.resize(tiles_.rows(s.tile));
     largest_local_ = std::max<std::uint64_t>(largest_local_, s.local.size());
@@ -36,8 +37,10 @@ PipelineStages Run::streamed_stages(StepPlan& plan, StepWork& work) {
     const std::size_t rows = s.next.size();
     const std::vector<Index>& order = s.nb->order;
     if (!order.empty() && !s.read_in_list_order) s.nb->to_local(s.next, s.local, rows);
-    s.stats = euler_step(s.local, s.nb->local, std::span<const Index>(work.identity.data(), rows), params_.flow,
-                         plan.lambda, s.next);
+    const std::span<const Index> identity(work.identity.data(), rows);
+    s.stats = euler_step(s.local, s.nb->local, identity, params_.flow, plan.lambda, s.next);
+    if (plan.momentum > 0.0) add_momentum(s.local, s.next, identity, s.moves.momentum(plan.momentum), s.next);
+    if (plan.writes_moves) s.moves.keep(std::span<const Vec3>(s.local).first(rows), s.next);
     if (order.empty()) return;
     if (!plan.streamed_list_order) {
       s.nb->to_rows(s.next, s.local, rows);
@@ -55,6 +58,7 @@ PipelineStages Run::streamed_stages(StepPlan& plan, StepWork& work) {
     const bool listed = plan.streamed_list_order && !s.nb->order.empty();
     const std::vector<Vec3>& result = listed ? s.next : s.result();
     plan.target->write_rows(begin, rows, result.data()->data(), h5::Transfer::Collective);
+    write_moves(plan, s.tile, s.nb->order, s.moves);
     file().start_writeback();
     if (halos != nullptr) halos->write(plan.written_halos, s.tile, s.next.data());
     if (plan.gather_sample)

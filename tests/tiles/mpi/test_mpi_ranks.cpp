@@ -273,6 +273,25 @@ TEST_F(MpiRunTest, CompensationAndPlateauStopOnRanksAndResumedOnOthers) {
   expect_same_run("ref.h5", "b.h5");
 }
 
+// Momentum: each rank reads and writes its tiles' last moves (collective writes, as many per
+// rank as the rank with the most tiles): the single process's run to the bit, also resumed
+// on 2 ranks after 3 steps on 3.
+TEST_F(MpiRunTest, MomentumOnRanksAndResumedOnOthers) {
+  params_.steps = 12;
+  params_.stop_lambda_ratio = 0.0;
+  params_.stop_plateau = 0.0;
+  params_.momentum = 0.6;
+  params_.momentum_gate = 0.0;
+  method_ = " --stop-lambda-ratio 0 --stop-plateau 0 --momentum 0.6 --momentum-gate 0";
+  run_serial("ref.h5");
+  ASSERT_EQ(run_mpi(3, "out.h5"), 0) << log_;
+  expect_collective_writes();
+  expect_same_run("ref.h5", "out.h5");
+  ASSERT_EQ(run_mpi(3, "a.h5", "POINTFAIR_MPI_STOP_AFTER_STEPS=3"), 0) << log_;
+  ASSERT_EQ(run_mpi(2, "a.h5", "", true), 0) << log_;
+  expect_same_run("ref.h5", "a.h5");
+}
+
 // The quadric finish: each rank finishes its tiles, every pass committed once all ranks
 // wrote it: the single process's run to the bit; one stopped by a single process after the
 // first pass resumes on 2 ranks, still to the bit.
