@@ -89,9 +89,14 @@ std::optional<StopReason> stop_reason(const SmoothParams& params, std::span<cons
 
 double momentum_of_step(const SmoothParams& params, int step, bool rebuilt, bool lambda_rose,
                         std::span<const double> lambdas) {
-  if (step == 0 || rebuilt || lambda_rose) return 0.0;
-  if (lambdas.size() >= 2 && lambdas[1] < params.momentum_gate * lambdas[0]) return 0.0;
+  if (step == 0 || rebuilt || lambda_rose || !has_momentum(params)) return 0.0;
+  if (params.momentum_gate > 0.0 && (lambdas.size() < 2 || lambdas[1] < params.momentum_gate * lambdas[0])) return 0.0;
   return params.momentum;
+}
+
+bool has_momentum(const SmoothParams& params) {
+  const bool gauged = params.flow.flow == Flow::Anisotropic && params.flow.lambda == 0.0 && params.lambda_every_step;
+  return params.momentum > 0.0 && (params.momentum_gate == 0.0 || gauged);
 }
 
 bool measures_lambda_before(const SmoothParams& params, int step) {
@@ -179,7 +184,7 @@ SmoothReport run_flow(std::vector<Vec3>& positions, const SmoothParams& params, 
   // `next` holds the step before the current one (for the momentum) until a step writes it.
   std::vector<Vec3> next(positions.size());
   // The flow's own update, when it is compensated (shrink_compensation.hpp) or has momentum.
-  std::vector<Vec3> updated(params.shrink_compensation > 0.0 || params.momentum > 0.0 ? positions.size() : 0);
+  std::vector<Vec3> updated(params.shrink_compensation > 0.0 || has_momentum(params) ? positions.size() : 0);
   // lambdas[s]: the automatic lambda measured before step s + 1 (SmoothParams::stop_plateau).
   std::vector<double> lambdas{report.lambda};
   for (int step = 0; step < params.steps; ++step) {

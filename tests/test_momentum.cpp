@@ -93,9 +93,19 @@ TEST(Momentum, NoneOnTheFirstStepAfterARebuildWhereTheGaugeRoseOrInAGatedRun) {
   EXPECT_EQ(momentum_of_step(params, 2, false, false, fast), 0.0);
   params.momentum_gate = 0.5;
   EXPECT_EQ(momentum_of_step(params, 2, false, false, fast), 0.6);
-  // No gauge measured every step: no gate.
+  // No gauge measured every step (the isotropic flow, a fixed lambda, a lambda measured once):
+  // nothing for the gate to read, no momentum but with the gate off.
   params.momentum_gate = 0.9;
-  EXPECT_EQ(momentum_of_step(params, 5, false, false, std::span<const double>(fast).first(1)), 0.6);
+  EXPECT_EQ(momentum_of_step(params, 5, false, false, std::span<const double>(slow).first(1)), 0.0);
+  SmoothParams isotropic = params, fixed = params, once = params;
+  isotropic.flow.flow = Flow::Isotropic;
+  fixed.flow.lambda = 12.0;
+  once.lambda_every_step = false;
+  for (SmoothParams* p : {&isotropic, &fixed, &once}) {
+    EXPECT_EQ(momentum_of_step(*p, 2, false, false, slow), 0.0);
+    p->momentum_gate = 0.0;
+    EXPECT_EQ(momentum_of_step(*p, 2, false, false, std::span<const double>(slow).first(1)), 0.6);
+  }
   params.momentum = 0.0;
   EXPECT_EQ(momentum_of_step(params, 5, false, false, slow), 0.0);
 }
@@ -194,6 +204,7 @@ TEST(Momentum, HeavyNoiseGoesInFewerSteps) {
   std::vector<Vec3> plain = input, moving = input;
   SmoothParams params;
   params.finish.reset();  // the flow's own figures
+  params.momentum = 0.0;
   const SmoothReport plain_report = smooth(plain, params);
   params.momentum = 0.7;
   const SmoothReport moving_report = smooth(moving, params);

@@ -134,7 +134,9 @@ struct SmoothParams {
   /// 3.07e-3, bunny (100K, 0.1%) 0.272e-3 vs 0.462e-3 (README, Quality). Out of core each
   /// tile then comes with the 2-ring closure of its lists (tiled_smooth.hpp).
   double shrink_compensation = 1.0;
-  /// Momentum m in [0, 1) (dimensionless; 0 = off, the paper's plain steps; beyond the paper):
+  /// Momentum m in [0, 1) (dimensionless; 0 = off, the paper's plain steps; beyond the paper;
+  /// 0.5 measured: the quality benchmark within 1% of no momentum, the 1M-point default run
+  /// in half the steps, docs/momentum.md):
   /// each step also moves a point by m times its move in the step before,
   ///   p_i(n+1) = p_i(n) + c_i + m (p_i(n) - p_i(n-1))   (c_i the step, compensated or not),
   /// the heavy-ball scheme. Noise whose reach spans many sample spacings (heavy noise on a dense
@@ -146,7 +148,7 @@ struct SmoothParams {
   /// input's, the noise is fast to go and the run has none (momentum_of_step). Out of core
   /// too, to the same bits (the run file keeps every point's last move); measured in
   /// docs/momentum.md.
-  double momentum = 0.0;
+  double momentum = 0.5;
   /// Momentum only for slow runs (dimensionless, in [0, 1]; 0 = always): with lambda_1 the
   /// automatic lambda after the first step and lambda_0 the input's, a run whose lambda_1 <
   /// momentum_gate lambda_0 has no momentum. Light noise loses most of its gauge in the first
@@ -182,10 +184,16 @@ enum class StopReason {
 /// step that starts from rebuilt neighbourhoods, where the automatic lambda measured before it
 /// rose above the one measured before the step before (`lambda_rose`: a restart), or in a run
 /// the gate turned it off for (SmoothParams::momentum_gate; `lambdas` as stop_reason reads
-/// them: the input's and those measured before each step since; fewer than two, as without an
-/// automatic lambda measured every step: no gate).
+/// them: the input's and those measured before each step since). The gate reads the noise
+/// gauge, the automatic lambda of the anisotropic flow measured before every step: a run
+/// without it (the isotropic flow, a fixed lambda, a lambda measured once) has momentum only
+/// with the gate off (momentum_gate 0).
 double momentum_of_step(const SmoothParams& params, int step, bool rebuilt, bool lambda_rose,
                         std::span<const double> lambdas);
+
+/// Whether a step of a run with `params` may have momentum at all: momentum > 0, and the gate
+/// off or a gauge for it (momentum_of_step).
+bool has_momentum(const SmoothParams& params);
 
 /// "lambda_ratio", "plateau", "step_limit".
 std::string_view to_string(StopReason reason);

@@ -80,9 +80,9 @@ inline constexpr std::array<SmoothParameter, 31> kSmoothParameters{{
     {"robust_gate", "robust_gate", "", [](const SmoothParams& p) { return real_value(p.flow.robust.gate); },
      [](const SmoothParams& p) { return p.flow.robust.gate != 0.0; }},
     {"momentum", "momentum", "", [](const SmoothParams& p) { return real_value(p.momentum); },
-     [](const SmoothParams& p) { return p.momentum != 0.0; }},
+     [](const SmoothParams& p) { return has_momentum(p); }},
     {"momentum_gate", "momentum_gate", "", [](const SmoothParams& p) { return real_value(p.momentum_gate); },
-     [](const SmoothParams& p) { return p.momentum != 0.0; }},
+     [](const SmoothParams& p) { return has_momentum(p); }},
 }};
 
 /// The --json "parameters" block's order: the table's --json names and, where the summary

@@ -647,8 +647,8 @@ TEST_F(CliInfoTest, HeavyNoiseGetsTheHintOfFewerSteps) {
     return r.out;
   };
   const std::string heavy = info_of("heavy.ply", 0.1), light = info_of("light.ply", 0.002);
-  EXPECT_NE(heavy.find("--momentum 0.5"), std::string::npos) << heavy;
-  EXPECT_EQ(light.find("--momentum"), std::string::npos) << light;
+  EXPECT_NE(heavy.find("--coarse-level"), std::string::npos) << heavy;
+  EXPECT_EQ(light.find("--coarse-level"), std::string::npos) << light;
 }
 
 TEST_F(CliInfoTest, ReadsTheEpsgCodeOfGeoTiffKeys) {

@@ -33,6 +33,7 @@ std::string reference_parameters_key(const SmoothParams& p) {
   if (p.flow.features.threshold == 0.0 && p.flow.features.scale == FeatureScale::Spacing)
     s << " feature_scale=spacing feature_turn=" << p.flow.features.turn;
   if (p.flow.robust.gate != 0.0) s << " robust_gate=" << p.flow.robust.gate;
+  if (has_momentum(p)) s << " momentum=" << p.momentum << " momentum_gate=" << p.momentum_gate;
   return s.str();
 }
 
@@ -74,6 +75,10 @@ TEST(ParametersKey, TheTablesWriteTheLineWrittenByHand) {
   lambda_rule.flow.features.scale = FeatureScale::Lambda;
   for (const SmoothParams& p : {SmoothParams{}, paper_smooth_params(SmoothParams{}), changed, fixed_threshold, lambda_rule}) {
     EXPECT_EQ(tiles::detail::parameters_key(p), reference_parameters_key(p));
+    // Runs from before momentum (or where no step can have it) name none of it.
+    SmoothParams without = p;
+    without.momentum = 0.0;
+    EXPECT_EQ(tiles::detail::parameters_key(without).find("momentum"), std::string::npos);
     QuadricProjectionParams q = p.finish.value_or(QuadricProjectionParams{});
     EXPECT_EQ(tiles::detail::finish_key(q), reference_finish_key(q));
     // Runs from before fit sharing (every point its own fit) name none of it.

@@ -197,10 +197,10 @@ void print_file(const fs::path& file, const FileSummary& s, const DefaultsEstima
               format_number(d->noise.ratio).c_str(), format_number(d->noise.ratio * d->noise.spacing).c_str());
   std::printf("  defaults   k %d, eps %s; then the finish: degree-%d fits over %d neighbours, %d passes\n", d->k,
               format_number(d->eps).c_str(), finish.degree, finish.k, finish.passes);
-  // Where the flow needs many steps (docs/momentum.md, docs/coarse-level.md).
+  // Where the flow needs many steps even with momentum (docs/coarse-level.md).
   if (d->noise.ratio >= CoarseLevelParams{}.min_noise_ratio)
-    std::printf("  heavy      noise of %s spacings or more: 'pointfair smooth --momentum 0.5' or "
-                "'--coarse-level' take far fewer steps (in core)\n",
+    std::printf("  heavy      noise of %s spacings or more: 'pointfair smooth --coarse-level' takes "
+                "far fewer steps (in core)\n",
                 format_number(CoarseLevelParams{}.min_noise_ratio).c_str());
 }
 

@@ -124,7 +124,7 @@ JsonObject summary_json(const OutOfCoreFileSmooth& run, const tiles::OutOfCoreRe
   j.add("step_blocks", report.step_blocks);
   j.add("tiles_in_flight", report.tiles_in_flight);
   j.add("rebuilds", report.rebuilds).add("temporal_block", run.options.temporal_block);
-  if (params.momentum > 0.0) j.add("momentum_restarts", report.momentum_restarts);
+  if (has_momentum(params)) j.add("momentum_restarts", report.momentum_restarts);
   // Bytes the steps read: positions (24 per row) and neighbour lists (4 k + 2 per row).
   const std::size_t list_row_bytes = 4 * static_cast<std::size_t>(report.k) + 2;
   j.add("bytes_read_per_step",

@@ -113,7 +113,7 @@ PointFileSmoothResult smooth_point_file(const PointFileSmooth& run) {
   JsonObject& j = result.json;
   j.add("command", "smooth").add("version", version()).add("input", run.input).add("output", run.output);
   j.add("points", result.points).add("steps", report.steps).add("rebuilds", report.rebuilds);
-  if (params.momentum > 0.0) j.add("momentum_restarts", report.momentum_restarts);
+  if (has_momentum(params)) j.add("momentum_restarts", report.momentum_restarts);
   j.add("stop_reason", std::string(to_string(report.stop_reason)));
   j.add("threads", thread_count());
   j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));

@@ -37,9 +37,13 @@ void Run::plan_momentum(StepPlan& plan, bool lambda_rose, std::span<const double
   plan.momentum = momentum_of_step(params_, step, rebuild_due(step), lambda_rose, lambdas);
   if (lambda_rose && momentum_of_step(params_, step, rebuild_due(step), false, lambdas) > 0.0)
     ++report.momentum_restarts;
-  // Whether the next step may have momentum (its lambda is not known yet: as if it did not rise).
-  plan.writes_moves =
-      step + 1 < params_.steps && momentum_of_step(params_, step + 1, rebuild_due(step + 1), false, lambdas) > 0.0;
+  // Whether the next step may have momentum: its lambda is not known yet (as if it neither
+  // rose nor, before step 1, closed the gate).
+  const double first = lambdas.front();
+  const std::array<double, 2> gate_open{first, first};
+  plan.writes_moves = step + 1 < params_.steps &&
+                      momentum_of_step(params_, step + 1, rebuild_due(step + 1), false,
+                                       lambdas.size() >= 2 ? lambdas : std::span<const double>(gate_open)) > 0.0;
   if (plan.momentum > 0.0) plan.moves_source.emplace(file().dataset(moves_buffer(step)));
   if (plan.writes_moves) plan.moves_target.emplace(file().dataset(moves_buffer(step + 1)));
 }

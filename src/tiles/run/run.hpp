@@ -370,7 +370,7 @@ class Run {
            (params_.stop_lambda_ratio > 0.0 || params_.stop_plateau > 0.0);
   }
   bool compensated() const { return params_.shrink_compensation > 0.0; }
-  bool momentum_on() const { return params_.momentum > 0.0; }
+  bool momentum_on() const { return has_momentum(params_); }
   // Whether `v` holds on any / on every rank (collective when there are several).
   bool on_any_rank(bool v) const { return ranks_->size() > 1 ? ranks_->sum(v ? 1 : 0) > 0 : v; }
   bool on_every_rank(bool v) const { return !on_any_rank(!v); }
