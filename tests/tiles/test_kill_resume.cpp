@@ -143,4 +143,22 @@ TEST_F(KillResumeTest, CompensatedRunWithPlateauStopKilledAndResumedIsBitIdentic
   test::expect_identical(path("ref.h5"), in_core);
 }
 
+// Momentum with compensated steps streamed as blocks (a budget that holds neither lists nor
+// positions): killed between a step's moves and its commit, or in either, the step is done
+// again from the moves it read; the result is smooth()'s.
+TEST_F(KillResumeTest, MomentumKilledAndResumedIsBitIdentical) {
+  const io::PointTable cloud = test::noisy_cube(12000, 26);
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 2000}));
+  kill_and_resume({"--steps", "16", "--momentum", "0.6", "--momentum-gate", "0", "--stop-lambda-ratio", "0",
+                   "--stop-plateau", "0", "--no-quadric-finish", "--memory-budget", "3M", "--threads", "2", "--quiet"});
+  SmoothParams params;
+  params.finish.reset();  // the flow alone
+  params.steps = 16;
+  params.momentum = 0.6;
+  params.momentum_gate = 0.0;
+  params.stop_lambda_ratio = 0.0;
+  params.stop_plateau = 0.0;
+  test::expect_identical(path("ref.h5"), test::run_in_core(cloud, params));
+}
+
 }  // namespace

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "pointfair/common/parallel.hpp"
+#include "pointfair/common/params_error.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
 #include "tiles_test_util.hpp"
@@ -147,6 +148,21 @@ TEST_F(TiledMomentumTest, GatedRunsAndRestartsFollowSmooth) {
   ASSERT_EQ(run_in_core(cloud, gated).positions, without.positions) << "not the case this test is for";
   smooth_out_of_core(path("in.h5"), path("run.h5"), gated);
   expect_identical(path("run.h5"), without);
+  std::filesystem::remove(path("run.h5"));
+  // A resume with another momentum or gate (or none) is refused: the steps done had theirs.
+  OutOfCoreOptions stop;
+  stop.stop_after_steps = 2;
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, stop).finished);
+  OutOfCoreOptions resume;
+  resume.resume = true;
+  SmoothParams other_m = params, other_gate = params, none_at_all = params;
+  other_m.momentum = 0.5;
+  other_gate.momentum_gate = 0.5;
+  none_at_all.momentum = 0.0;
+  for (const SmoothParams& other : {other_m, other_gate, none_at_all})
+    EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), other, resume), ParamError);
+  EXPECT_TRUE(smooth_out_of_core(path("in.h5"), path("run.h5"), params, resume).finished);
+  expect_identical(path("run.h5"), ref);
 }
 
 }  // namespace
