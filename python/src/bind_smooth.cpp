@@ -180,7 +180,7 @@ Denoises (N, 3) float64 positions with the anisotropic mean curvature flow (Lang
 
 options: the command's method and finish options in snake_case (k, eps, eps_factor, steps,
 tau, flow, cutoff, cutoff_origin, lambda_, lambda_schedule, stop_lambda_ratio, stop_plateau,
-shrink_compensation, momentum, lambda_factor, constrain_normal, normal, robust_seed, robust_iterations,
+shrink_compensation, momentum, momentum_gate, lambda_factor, constrain_normal, normal, robust_seed, robust_iterations,
 robust_bound, robust_gate, rebuild_every, features, edge_quotient, feature_threshold, feature_turn,
 feature_gated, weights, density_floor, move, quadric_finish, quadric_k, quadric_angle,
 quadric_degree, quadric_passes, quadric_iterations, quadric_curvature_reach, quadric_min_k,

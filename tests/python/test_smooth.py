@@ -46,6 +46,8 @@ class SmoothMatchesCommand(Folder):
 
     def test_momentum(self):
         self.check({"momentum": 0.7, "steps": 6}, ["--momentum", "0.7", "--steps", "6"])
+        self.check({"momentum": 0.7, "momentum_gate": 0, "steps": 6},
+                   ["--momentum", "0.7", "--momentum-gate", "0", "--steps", "6"])
 
     def test_finish_options_and_lambda(self):
         self.check({"quadric_k": 40, "quadric_passes": 1, "lambda": 5.0, "steps": 4},
