@@ -131,9 +131,7 @@ TEST_F(KillResumeTest, CompensatedRunWithPlateauStopKilledAndResumedIsBitIdentic
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 2000}));
   kill_and_resume({"--steps", "40", "--shrink-compensation", "1", "--stop-plateau", "0.1", "--stop-lambda-ratio",
                    "0", "--no-quadric-finish", "--threads", "2", "--quiet"});
-  SmoothParams params;
-  params.finish.reset();  // the flow alone
-  params.steps = 40;
+  SmoothParams params = test::few_steps(40);  // the flow alone
   params.shrink_compensation = 1.0;
   params.stop_plateau = 0.1;
   params.stop_lambda_ratio = 0.0;
@@ -151,9 +149,7 @@ TEST_F(KillResumeTest, MomentumKilledAndResumedIsBitIdentical) {
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 2000}));
   kill_and_resume({"--steps", "16", "--momentum", "0.6", "--momentum-gate", "0", "--stop-lambda-ratio", "0",
                    "--stop-plateau", "0", "--no-quadric-finish", "--memory-budget", "3M", "--threads", "2", "--quiet"});
-  SmoothParams params;
-  params.finish.reset();  // the flow alone
-  params.steps = 16;
+  SmoothParams params = test::few_steps(16);  // the flow alone
   params.momentum = 0.6;
   params.momentum_gate = 0.0;
   params.stop_lambda_ratio = 0.0;

@@ -19,17 +19,10 @@ using namespace pointfair::tiles;
 namespace {
 
 using test::expect_identical;
-using test::few_steps;
 using test::InCore;
 using test::run_in_core;
 
-class TiledMomentumTest : public test::TempDirTest {
- protected:
-  void TearDown() override {
-    set_thread_count(0);
-    TempDirTest::TearDown();
-  }
-};
+using TiledMomentumTest = test::ThreadsTempDirTest;
 
 struct Strategy {
   const char* name;
@@ -56,7 +49,7 @@ TEST_F(TiledMomentumTest, EveryStrategyGivesTheInCoreBits) {
   set_thread_count(2);
   for (const Strategy& s : strategies) {
     SCOPED_TRACE(s.name);
-    SmoothParams params = few_steps(6);
+    SmoothParams params = test::few_steps(6);
     params.stop_lambda_ratio = 0.0;
     params.stop_plateau = 0.0;
     params.shrink_compensation = s.beta;
@@ -107,7 +100,7 @@ TEST_F(TiledMomentumTest, EveryStrategyGivesTheInCoreBits) {
 TEST_F(TiledMomentumTest, GatedRunsAndRestartsFollowSmooth) {
   const io::PointTable cloud = test::noisy_cube(3000, 32, 0.03);
   write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 300}, 64));
-  SmoothParams params = few_steps(40);
+  SmoothParams params = test::few_steps(40);
   params.momentum = 0.8;
   params.momentum_gate = 0.0;
   const InCore ref = run_in_core(cloud, params);

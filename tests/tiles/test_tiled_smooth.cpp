@@ -27,12 +27,8 @@ using test::run_in_core;
 // A plateau that stops the compensated flow on the noisy cube well before 60 steps.
 constexpr double kPlateau = 0.03;
 
-class TiledSmoothTest : public test::TempDirTest {
+class TiledSmoothTest : public test::ThreadsTempDirTest {
  protected:
-  void TearDown() override {
-    set_thread_count(0);
-    TempDirTest::TearDown();
-  }
   // The run of `options` stopped after its first step (block), then resumed with temporal
   // blocks of `resumed_block`: the same bits as `ref`. Removes the run file.
   void expect_stopped_and_resumed_identical(const SmoothParams& params, OutOfCoreOptions options,

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "pointfair/common/parallel.hpp"
 #include "pointfair/finish/quadric_projection.hpp"
 #include "pointfair/io/point_table.hpp"
 #include "pointfair/shapes/shapes.hpp"
@@ -27,6 +28,15 @@ class TempDirTest : public ::testing::Test {
   std::filesystem::path path(const std::string& name) const { return dir_ / name; }
 
   std::filesystem::path dir_;
+};
+
+/// A TempDirTest whose tests may set the thread count: each gets the default back after it.
+class ThreadsTempDirTest : public TempDirTest {
+ protected:
+  void TearDown() override {
+    set_thread_count(0);
+    TempDirTest::TearDown();
+  }
 };
 
 /// A noisy cube surface (sharp edges and corners) with two extra attributes.
