@@ -9,6 +9,7 @@
 //   held_step.cpp      a step over positions held in memory (the strategy while they fit)
 //   streamed_step.cpp  a step streaming each tile and its halo from the run file
 //   block_step.cpp     a step or temporal block over a tile's ring closure (BlockSlot)
+//   momentum_step.cpp  momentum: its rules from the logged lambdas, each tile's last moves
 //   finish.cpp         the quadric finish, the attributes and the end
 #include <algorithm>
 #include <array>
