@@ -99,7 +99,7 @@ if [ "${POINTFAIR_HARDENING:-1}" != 0 ]; then
   cmake --build "$tsan" -j"$jobs" --target pointfair_threading_tests pointfair_pipeline_tests \
     pointfair_tiled_threading_tests
   TSAN_OPTIONS=halt_on_error=1 ctest --test-dir "$tsan" --output-on-failure -j"$jobs" --timeout 600 \
-    -R '^((Threading\.(Parallel|Neighbo[a-z]*|SpatialOrder|EulerStep)|Pipeline)\.|TiledThreading\.TiledSmoothTest\.(OneAndTwoThreads|Pipelined|StreamedHalos|PositionsHeld|StepsWrittenInListOrder|TemporalBlocks))'
+    -R '^((Threading\.(Parallel|Neighbo[a-z]*|SpatialOrder|EulerStep)|Pipeline)\.|TiledThreading\.TiledSmoothTest\.(OneAndTwoThreads|Pipelined|StreamedHalos|PositionsHeld|StepsWrittenInListOrder|TemporalBlocks)|TiledThreading\.TiledMomentumTest\.EveryStrategy)'
   if [ "$full" = 1 ]; then
     cmake --build "$tsan" -j"$jobs" --target pointfair_core_tests
     TSAN_OPTIONS=halt_on_error=1 "$tsan/tests/pointfair_core_tests"

@@ -49,9 +49,13 @@ void Run::plan_momentum(StepPlan& plan, bool lambda_rose, std::span<const double
 }
 
 void Run::read_moves(const StepPlan& plan, std::size_t t, std::span<const Index> order, TileMoves& moves) const {
-  moves.listed.clear();
-  if (plan.momentum == 0.0) return;
+  // Sized here, on the thread that reads every slot's vectors (step_slots_bytes), for the
+  // compute to fill (TileMoves::keep).
   const std::uint64_t rows = tiles_.rows(t);
+  if (plan.momentum == 0.0) {
+    moves.listed.resize(plan.writes_moves ? rows : 0);
+    return;
+  }
   moves.by_row.resize(rows);
   plan.moves_source->read_rows(tiles_.offsets[t], rows, moves.by_row.data()->data());
   for (const Vec3& v : moves.by_row)

@@ -3,6 +3,7 @@
 // run file keeps every point's move p(n) - p(n-1) in row order, one buffer per step parity
 // (Run::moves_buffer); a step reads its tile's rows before it computes, in the order of the
 // tile's positions, and gives back the step's own moves to be written after it.
+#include <cassert>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -32,9 +33,10 @@ struct TileMoves {
       for (std::size_t s = 0; s < order.size(); ++s) by_row[order[s]] = listed[s];
   }
   // The step's moves, next[s] - current[s] for each of the tile's points, into `listed`
-  // (which the step's momentum read before).
+  // (which the step's momentum read before; sized by Run::read_moves, not here: the compute
+  // runs beside the thread that measures every slot's vectors).
   void keep(std::span<const Vec3> current, std::span<const Vec3> next) {
-    listed.resize(next.size());
+    assert(listed.size() == next.size());
     last_moves(current, next, {}, listed);
   }
   // A step's momentum m from these moves.
