@@ -101,14 +101,10 @@ void add_momentum(std::span<const Vec3> current, std::span<const Vec3> updated, 
   }, 16384);
 }
 
-void last_moves(std::span<const Vec3> current, std::span<const Vec3> next, std::span<const Index> rows,
-                std::span<Vec3> moves) {
-  const std::size_t n = moves.size();
-  require(next.size() == n, "last_moves: one next position per move");
-  require(rows.empty() || rows.size() == n, "last_moves: rows must match the moves");
-  require(!rows.empty() || current.size() >= n, "last_moves: one current position per move");
-  parallel_for(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t r = begin; r < end; ++r) moves[r] = next[r] - current[rows.empty() ? r : rows[r]];
+void last_moves(std::span<const Vec3> current, std::span<const Vec3> next, std::span<Vec3> moves) {
+  require(next.size() >= moves.size() && current.size() >= moves.size(), "last_moves: one position each per move");
+  parallel_for(moves.size(), [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) moves[i] = next[i] - current[i];
   }, 16384);
 }
 

@@ -60,10 +60,9 @@ void compensate_updates(std::span<const Vec3> current, std::span<const Vec3> upd
                         NeighborhoodsView neighborhoods, std::span<const Index> rows, double beta,
                         const StepMomentum& momentum, std::span<Vec3> next);
 
-/// moves[r] = next[r] - current[i] for the rows of a step (point rows[r]; rows empty: row r
-/// is point r): the moves StepMomentum::moves reads on the step after.
-void last_moves(std::span<const Vec3> current, std::span<const Vec3> next, std::span<const Index> rows,
-                std::span<Vec3> moves);
+/// moves[i] = next[i] - current[i] for i < moves.size() (parallel): a step's moves, which
+/// StepMomentum::moves reads on the step after.
+void last_moves(std::span<const Vec3> current, std::span<const Vec3> next, std::span<Vec3> moves);
 
 /// An uncompensated step with momentum: next[r] = updated[r] + m (current[i] - previous[r]),
 /// with updated[r] the euler_step output of row r (point rows[r]; rows empty: row r is point r).

@@ -1,34 +1,11 @@
 // Momentum out of core (SmoothParams::momentum): the rules of momentum_of_step followed from
-// the lambdas a run measures anyway (and, resumed, from its step log), and each tile's last
+// the lambdas the step loop keeps (steps.cpp: logged_lambdas, note_lambda), and each tile's last
 // moves read before its step and written after it. The moves live in the run file in row
 // order, one buffer per step parity, so that every strategy (held, streamed, blocks) and
 // every tiling reads the same moves and gives smooth()'s bits.
 #include "run.hpp"
 
 namespace pointfair::tiles::detail {
-
-std::vector<double> Run::logged_flow_lambdas(int start) {
-  std::vector<double> lambdas;
-  if (start == 0) return lambdas;
-  std::vector<double> entries(2 * static_cast<std::size_t>(start));
-  file().dataset(layout::run_step_log).read_rows(0, static_cast<std::uint64_t>(start), entries.data());
-  lambdas.push_back(entries[0]);
-  for (int s = 1; s < start; ++s)
-    if (params_.lambda_every_step && measures_lambda_before(params_, s))
-      lambdas.push_back(entries[2 * static_cast<std::size_t>(s)]);
-  return lambdas;
-}
-
-bool Run::note_flow_lambda(int step, double lambda, std::vector<double>& lambdas) const {
-  if (step == 0) {
-    lambdas.assign(1, lambda);
-    return false;
-  }
-  if (!params_.lambda_every_step || !measures_lambda_before(params_, step)) return false;
-  const bool rose = lambda > lambdas.back();
-  lambdas.push_back(lambda);
-  return rose;
-}
 
 void Run::plan_momentum(StepPlan& plan, bool lambda_rose, std::span<const double> lambdas, OutOfCoreReport& report) {
   if (!momentum_on()) return;
@@ -37,13 +14,11 @@ void Run::plan_momentum(StepPlan& plan, bool lambda_rose, std::span<const double
   plan.momentum = momentum_of_step(params_, step, rebuild_due(step), lambda_rose, lambdas);
   if (lambda_rose && momentum_of_step(params_, step, rebuild_due(step), false, lambdas) > 0.0)
     ++report.momentum_restarts;
-  // Whether the next step may have momentum: its lambda is not known yet (as if it neither
-  // rose nor, before step 1, closed the gate).
-  const double first = lambdas.front();
-  const std::array<double, 2> gate_open{first, first};
+  // Whether the next step may have momentum: its lambda is not known yet (as if it did not
+  // rise), nor, on step 0, the gate's (step 1's lambda).
   plan.writes_moves = step + 1 < params_.steps &&
-                      momentum_of_step(params_, step + 1, rebuild_due(step + 1), false,
-                                       lambdas.size() >= 2 ? lambdas : std::span<const double>(gate_open)) > 0.0;
+                      (step == 0 ? !rebuild_due(1)
+                                 : momentum_of_step(params_, step + 1, rebuild_due(step + 1), false, lambdas) > 0.0);
   if (plan.momentum > 0.0) plan.moves_source.emplace(file().dataset(moves_buffer(step)));
   if (plan.writes_moves) plan.moves_target.emplace(file().dataset(moves_buffer(step + 1)));
 }
@@ -58,8 +33,9 @@ void Run::read_moves(const StepPlan& plan, std::size_t t, std::span<const Index>
   }
   moves.by_row.resize(rows);
   plan.moves_source->read_rows(tiles_.offsets[t], rows, moves.by_row.data()->data());
-  for (const Vec3& v : moves.by_row)
-    if (!v.allFinite()) file().fail(moves_buffer(plan.step), "a last move is not finite");
+  for (std::uint64_t r = 0; r < rows; ++r)
+    if (!moves.by_row[r].allFinite())
+      file().fail(moves_buffer(plan.step), "row " + std::to_string(tiles_.offsets[t] + r) + " has a non-finite move");
   moves.to_listed(order);
 }
 

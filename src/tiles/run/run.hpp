@@ -291,15 +291,13 @@ class Run {
   bool run_steps(OutOfCoreReport& report);
   // The lambda the first step of this call starts from when it is not measured every step.
   double lambda_at_start(int start, bool every_step);
-  // The lambdas of the steps before `start`, from the step log (for the automatic stop).
+  // The lambdas the automatic stop and the momentum read (stop_reason, momentum_of_step), as
+  // smooth() keeps them (measured before step 0, then before each step that measures one):
+  // those of the steps before `start` from the step log, then each step's as it comes (true
+  // where it rose).
   std::vector<double> logged_lambdas(int start);
-  // Momentum out of core (momentum_step.cpp). The lambdas momentum_of_step reads, as smooth()
-  // keeps them (measured before step 0, then before each step that measures one), of the
-  // steps before `start` from the step log; then those of each step as it comes (true where
-  // the lambda rose).
-  std::vector<double> logged_flow_lambdas(int start);
-  bool note_flow_lambda(int step, double lambda, std::vector<double>& lambdas) const;
-  // The step's momentum and moves (StepPlan::momentum, writes_moves); counts a restart.
+  bool note_lambda(int step, double lambda, std::vector<double>& lambdas) const;
+  // Momentum out of core (momentum_step.cpp). The step's momentum and moves (StepPlan::momentum, writes_moves); counts a restart.
   void plan_momentum(StepPlan& plan, bool lambda_rose, std::span<const double> lambdas, OutOfCoreReport& report);
   // Tile t's last moves before the step into moves.listed, in the order `order` gives its
   // points (none where the step has no momentum).

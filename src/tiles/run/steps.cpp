@@ -28,11 +28,10 @@ bool Run::run_steps(OutOfCoreReport& report) {
   if (every_step) load_sample_positions(file().dataset(current_source()));
   StepWork work = start_step_work(report);
   int committed_here = 0;
-  // The automatic stop looks at the lambdas of every step so far (should_stop): those of the
-  // steps before `start` from the step log, so that a resumed run stops where an
-  // uninterrupted one does.
+  // The automatic stop and the momentum look at the lambdas of every step so far (stop_reason,
+  // momentum_of_step): those of the steps before `start` from the step log, so that a resumed
+  // run stops and moves where an uninterrupted one does.
   std::vector<double> lambdas = logged_lambdas(start);
-  std::vector<double> flow_lambdas = momentum_on() ? logged_flow_lambdas(start) : std::vector<double>{};
   for (int step = start; step < params_.steps;) {
     if (rebuild_due(step) && state_[kNeighborsStep] != step) {
       finish_commit_timed(work, report);
@@ -49,9 +48,8 @@ bool Run::run_steps(OutOfCoreReport& report) {
         t0 = Clock::now();
       }
     }
-    const bool lambda_rose = momentum_on() && note_flow_lambda(step, lambda, flow_lambdas);
+    const bool lambda_rose = note_lambda(step, lambda, lambdas);
     if (stops_automatically()) {
-      lambdas.push_back(lambda);
       if (const std::optional<StopReason> reason = stop_reason(params_, lambdas)) {
         report.stop_reason = *reason;
         report.seconds_steps += seconds_since(t0);
@@ -62,7 +60,7 @@ bool Run::run_steps(OutOfCoreReport& report) {
       }
     }
     StepPlan plan = plan_step(step, lambda, committed_here, every_step);
-    plan_momentum(plan, lambda_rose, flow_lambdas, report);
+    plan_momentum(plan, lambda_rose, lambdas, report);
     PipelineStages stages = blocks()   ? block_stages(plan, work, report, t0)
                             : holding_ ? held_stages(plan, work)
                                        : streamed_stages(plan, work);
@@ -97,11 +95,25 @@ double Run::lambda_at_start(int start, bool every_step) {
 
 std::vector<double> Run::logged_lambdas(int start) {
   std::vector<double> lambdas;
-  if (!stops_automatically() || start == 0) return lambdas;
+  if (start == 0) return lambdas;
   std::vector<double> entries(2 * static_cast<std::size_t>(start));
   file().dataset(layout::run_step_log).read_rows(0, static_cast<std::uint64_t>(start), entries.data());
-  for (int s = 0; s < start; ++s) lambdas.push_back(entries[2 * static_cast<std::size_t>(s)]);
+  lambdas.push_back(entries[0]);
+  for (int s = 1; s < start; ++s)
+    if (params_.lambda_every_step && measures_lambda_before(params_, s))
+      lambdas.push_back(entries[2 * static_cast<std::size_t>(s)]);
   return lambdas;
+}
+
+bool Run::note_lambda(int step, double lambda, std::vector<double>& lambdas) const {
+  if (step == 0) {
+    lambdas.assign(1, lambda);
+    return false;
+  }
+  if (!params_.lambda_every_step || !measures_lambda_before(params_, step)) return false;
+  const bool rose = lambda > lambdas.back();
+  lambdas.push_back(lambda);
+  return rose;
 }
 
 StepWork Run::start_step_work(OutOfCoreReport& report) {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "pointfair/flow/shrink_compensation.hpp"
+#include "pointfair/neighbors/spatial_order.hpp"
 #include "pointfair/types.hpp"
 #include "vector_bytes.hpp"
 
@@ -19,25 +20,15 @@ struct TileMoves {
   std::vector<Vec3> listed;  // in the order of the tile's positions (point s: row order[s])
 
   // `by_row` into `listed` (order empty: the same order).
-  void to_listed(std::span<const Index> order) {
-    listed.resize(by_row.size());
-    if (order.empty()) listed = by_row;
-    else
-      for (std::size_t s = 0; s < order.size(); ++s) listed[s] = by_row[order[s]];
-  }
+  void to_listed(std::span<const Index> order) { listed = order.empty() ? by_row : gather(by_row, order); }
   // `listed` into `by_row`.
-  void to_rows(std::span<const Index> order) {
-    by_row.resize(listed.size());
-    if (order.empty()) by_row = listed;
-    else
-      for (std::size_t s = 0; s < order.size(); ++s) by_row[order[s]] = listed[s];
-  }
+  void to_rows(std::span<const Index> order) { by_row = order.empty() ? listed : scatter(listed, order); }
   // The step's moves, next[s] - current[s] for each of the tile's points, into `listed`
   // (which the step's momentum read before; sized by Run::read_moves, not here: the compute
   // runs beside the thread that measures every slot's vectors).
   void keep(std::span<const Vec3> current, std::span<const Vec3> next) {
     assert(listed.size() == next.size());
-    last_moves(current, next, {}, listed);
+    last_moves(current, next, listed);
   }
   // A step's momentum m from these moves.
   StepMomentum momentum(double m) const { return StepMomentum{m, {}, m == 0.0 ? std::span<const Vec3>() : std::span<const Vec3>(listed)}; }
