@@ -435,18 +435,19 @@ struct RowsJob {
 }
 
 // Row r's point moved onto the fit of the nearest seed on its face among its first
-// normal_neighbors (place_on_shared_fit); false where there is none or it does not reach.
+// share_candidates whose fit reaches it (place_on_shared_fit); false where there is none.
 [[gnu::always_inline]] inline bool share_fit(const RowsJob& job, std::size_t r, std::size_t i, const Vec3* anchor) {
   const std::span<const Index> row = job.rows.of(r);
-  const std::size_t candidates = std::min(row.size(), static_cast<std::size_t>(job.params.normal_neighbors));
+  const std::size_t candidates = std::min(row.size(), share_candidates(job.params));
   const Vec3& ni = job.normals[i];
   for (std::size_t c = 0; c < candidates; ++c) {
     const Index j = row[c];
     const Index f = job.shared->fit_of[j];
     if (f == SharedFits::kNoFit || !(std::abs(ni.dot(job.normals[j])) >= job.min_cos)) continue;
     const QuadricFit& fit = job.shared->fits[f];
-    if (fit.status != QuadricFit::Status::Fitted || fit.kappa < 0.0) return false;
-    return place_on_shared_fit(fit, job.points[i], anchor, job.params, job.out[r]);
+    if (fit.status == QuadricFit::Status::Fitted && fit.kappa >= 0.0 &&
+        place_on_shared_fit(fit, job.points[i], anchor, job.params, job.out[r]))
+      return true;
   }
   return false;
 }
@@ -671,7 +672,7 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
     // With sharing, a point reads only its nearest (the crease test's and the seeds'): the
     // block's lists are that short, and the points left to fit their own get k-long ones
     // after (a prefix of the canonical order is the canonical order of fewer neighbours).
-    const int placing_k = sharing ? std::min(params.k, std::max(params.min_k, params.normal_neighbors)) : params.k;
+    const int placing_k = sharing ? static_cast<int>(share_candidates(params)) : params.k;
     for (std::size_t first = 0; first < n; first += kQuadricBlock) {
       const std::size_t count = std::min(kQuadricBlock, n - first);
       block_queries(first, count, placing_k);

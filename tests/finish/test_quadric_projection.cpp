@@ -263,10 +263,12 @@ TEST(QuadricProjection, PassesWithAnchorsGiveThePlainPassesBits) {
 
 // Fit sharing against a plain loop of the one-point functions: a seed (is_share_seed) is
 // projected onto its own fit; another point is placed (placed_on_quadric, the point as its
-// own anchor) on the fit of the nearest seed on its face among its first normal_neighbors,
-// or projected onto its own fit where there is none. The turn bounds are opened so that the
-// placement is the sharing's, to the bit.
-TEST(QuadricProjection, SharedFitsArePlacementsOnTheNearestSeedsFit) {
+// own anchor) on the fit of the nearest seed on its face among its first share_candidates
+// whose fit reaches it (the surface turns by at most share_turn between them), or projected
+// onto its own fit where there is none. The placement's own turn bound is opened so that the
+// placement is the sharing's, to the bit; the share turn is tight enough that some points
+// pass over their nearest seed for a farther one, and some fit their own.
+TEST(QuadricProjection, SharedFitsArePlacementsOnTheNearestReachingSeedsFit) {
   std::vector<Vec3> p = sample_sphere(4000, 1.0, 31).points;
   add_noise(p, 0.005, 32);
   QuadricProjectionParams params;
@@ -274,7 +276,9 @@ TEST(QuadricProjection, SharedFitsArePlacementsOnTheNearestSeedsFit) {
   params.min_k = 12;
   params.passes = 1;
   params.share_stride = 4;
-  params.share_turn = params.placement_turn = 10.0;
+  params.placement_turn = 10.0;
+  params.share_turn = 0.1;
+  ASSERT_EQ(share_candidates(params), 16u);
   const Neighborhoods nb = quadric_neighborhoods(p, params);
   const std::vector<Vec3> normals = neighbourhood_normals(p, nb, params);
   const double min_cos = std::cos(params.normal_angle * M_PI / 180.0);
@@ -284,9 +288,29 @@ TEST(QuadricProjection, SharedFitsArePlacementsOnTheNearestSeedsFit) {
       if (std::abs(normals[i].dot(normals[j])) >= min_cos) kept.push_back(j);
     return kept;
   };
+  // Every seed's fit, and whether it reaches point i: the turn as place_on_shared_fit
+  // measures it (the pilot curvature times i's distance along the fit's plane).
+  std::vector<QuadricFit> fits(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (!is_share_seed(i, params)) continue;
+    const std::vector<Index> kept = same_face(i);
+    const Index query = static_cast<Index>(i);
+    Neighborhoods row;
+    row.stride = static_cast<int>(std::max<std::size_t>(kept.size(), 1));
+    row.eps = std::numeric_limits<double>::infinity();
+    row.counts = {static_cast<std::uint16_t>(kept.size())};
+    row.indices = kept;
+    row.indices.resize(static_cast<std::size_t>(row.stride), 0);
+    fit_rows_to_quadrics(p, normals, row, std::span<const Index>(&query, 1), params, std::span<QuadricFit>(&fits[i], 1));
+  }
+  const auto reaches = [&](const QuadricFit& fit, const Vec3& x) {
+    if (fit.status != QuadricFit::Status::Fitted || fit.kappa < 0.0) return false;
+    const Vec3 t1 = fit.normal.unitOrthogonal(), t2 = fit.normal.cross(t1), d = x - fit.origin;
+    return !(fit.kappa * std::hypot(d.dot(t1), d.dot(t2)) > params.share_turn);
+  };
   std::vector<Vec3> shared = p;
   finish_with_quadrics(shared, params);
-  std::size_t seeds = 0, sharing = 0;
+  std::size_t seeds = 0, nearest = 0, farther = 0, own = 0;
   for (std::size_t i = 0; i < p.size(); ++i) {
     ASSERT_FALSE(normals[i].isZero()) << i;
     std::optional<Index> seed;
@@ -294,22 +318,30 @@ TEST(QuadricProjection, SharedFitsArePlacementsOnTheNearestSeedsFit) {
       seed = static_cast<Index>(i);
       ++seeds;
     } else {
-      for (const Index j : nb.of(i).first(static_cast<std::size_t>(params.normal_neighbors)))
-        if (is_share_seed(j, params) && std::abs(normals[i].dot(normals[j])) >= min_cos) {
+      bool first = true;
+      for (const Index j : nb.of(i).first(share_candidates(params))) {
+        if (!is_share_seed(j, params) || !(std::abs(normals[i].dot(normals[j])) >= min_cos)) continue;
+        if (reaches(fits[j], p[i])) {
           seed = j;
-          ++sharing;
+          ++(first ? nearest : farther);
           break;
         }
+        first = false;
+      }
+      if (!seed) ++own;
     }
     const Vec3 expected = !seed ? project_to_quadric(p[i], same_face(i), p, params)
                           : *seed == i ? project_to_quadric(p[i], same_face(i), p, params)
                                        : placed_on_quadric(p[i], p[*seed], same_face(*seed), p, params);
     ASSERT_EQ(shared[i], expected) << "point " << i;
   }
-  // About one point in four is a seed, and nearly every other one shares a fit.
+  // About one point in four is a seed; of the others many share their nearest seed's fit,
+  // some a farther one's, some none (the pilot curvature of 12 noisy neighbours is rough).
   EXPECT_GT(seeds, p.size() / 5);
   EXPECT_LT(seeds, p.size() * 3 / 10);
-  EXPECT_GT(sharing, (p.size() - seeds) * 9 / 10);
+  EXPECT_GT(nearest, (p.size() - seeds) / 3);
+  EXPECT_GT(farther, 0u);
+  EXPECT_GT(own, 0u);
 }
 
 // Where the surface turns more than share_turn between a seed and a point, the point fits

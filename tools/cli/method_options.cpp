@@ -311,9 +311,9 @@ void add_finish_options(ArgumentParser& p, SmoothParams& s) {
           [finish](std::string_view v) { finish().min_k = parse_int(v, "--quadric-min-k"); });
   p.value("quadric-share", "N",
           "Fit sharing: 1 point in N (drawn by its index in the input) fits its own cubic; the "
-          "others move onto the fit of the nearest such point on their face "
-          "among their 16 nearest, where the surface turns by at most --quadric-share-turn "
-          "between them (1..64; 1: every point fits its own). " + finish_default("quadric_share") + ".",
+          "others move onto the fit of the nearest such point on their face among their "
+          "--quadric-min-k nearest across which the surface turns by at most "
+          "--quadric-share-turn, or fit their own (1..64; 1: every point fits its own). " + finish_default("quadric_share") + ".",
           [finish](std::string_view v) { finish().share_stride = parse_int(v, "--quadric-share"); });
   p.value("quadric-share-turn", "RADIANS",
           "Largest turn of the surface (curvature times distance) across which a fit is "

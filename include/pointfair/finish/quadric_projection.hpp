@@ -8,6 +8,7 @@
 // noise left that a wide second-order fit still removes. A plain wide fit bends across sharp
 // edges; the normal test keeps each fit on the point's own face. Measured on the sphere and
 // fandisk (README, Quality).
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -61,10 +62,11 @@ struct QuadricProjectionParams {
   int passes = 2;
   /// Fit sharing (beyond jet fitting): 1 in share_stride points (drawn by a hash of the point's
   /// index in the input, whatever the tiling: is_share_seed) fits its own cubic, a seed; every
-  /// other point takes the fit of the nearest seed among its normal_neighbors nearest on its
-  /// own face, and moves along that fit's normal onto it, where the surface turns by at most
-  /// share_turn (radians, as placement_turn; needs curvature_reach > 0) between the seed and
-  /// the point. The others fit their own. 1: every point fits its own; 1..64.
+  /// other point takes the fit of the nearest seed on its own face among its
+  /// share_candidates nearest whose fit reaches it: the surface turns by at most share_turn
+  /// (radians, as placement_turn; needs curvature_reach > 0) between that seed and the point.
+  /// It moves along that fit's normal onto it. The others fit their own. 1: every point fits
+  /// its own; 1..64.
   int share_stride = 4;
   double share_turn = 0.1;
   /// The plane the quadric's height is measured from, and each point's normal. Its three
@@ -92,6 +94,15 @@ struct QuadricFit {
 
 /// Whether the point with index `original` in the input is a seed of fit sharing.
 bool is_share_seed(std::uint64_t original, const QuadricProjectionParams& params);
+
+/// How many of a point's nearest neighbours fit sharing looks for a seed among: those of the
+/// crease test (min_k), at least normal_neighbors, at most k. When only the nearest seed on
+/// the face among the nearest 16 was tried, one point in seven fitted its own in the first
+/// pass (fandisk, 1M points at 0.5% noise); with every seed among 40 in turn, one in thirteen
+/// (docs/defaults.md).
+inline std::size_t share_candidates(const QuadricProjectionParams& params) {
+  return static_cast<std::size_t>(std::min(params.k, std::max(params.min_k, params.normal_neighbors)));
+}
 
 /// The seeds' fits that project_rows_to_quadrics shares: fit_of[i] is the index in `fits` of
 /// point i's fit, or kNoFit.
@@ -142,7 +153,7 @@ void project_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> nor
 /// With `shared` (its fit_of one per point), a point whose fit is there uses it, and the others
 /// share a seed's where params.share_stride allows. With `left_for_own_fit` as well (a flag
 /// per row), a row whose point would fit its own is flagged and its output left as it was:
-/// such rows need only their first max(min_k, normal_neighbors) entries.
+/// such rows need only their first share_candidates(params) entries.
 void project_rows_to_quadrics(std::span<const Vec3> points, std::span<const Vec3> normals, NeighborhoodsView rows,
                               std::span<const Index> queries, const QuadricProjectionParams& params,
                               std::span<Vec3> out, std::span<const Vec3> anchors = {},

@@ -43,12 +43,12 @@ std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const 
   for (std::size_t r = 0; r < lists.fits.size(); ++r)
     if (!check_row(lists.fits.of(r), local.queries[r])) return std::nullopt;
   if (q.share_stride > 1) {
-    // The seeds a tile point may share the fit of (among its first normal_neighbors), in
+    // The seeds a tile point may share the fit of (among its first share_candidates), in
     // ascending local order, each with its own fit's row: a tile seed's is its row above, a
     // halo seed's is built here.
     std::vector<char> seed(n, 0);
     std::vector<Index> tile_row(n, 0);
-    const std::size_t candidates = static_cast<std::size_t>(q.normal_neighbors);
+    const std::size_t candidates = share_candidates(q);
     for (std::size_t r = 0; r < lists.fits.size(); ++r) {
       const std::span<const Index> row = lists.fits.of(r);
       for (const Index j : row.first(std::min(candidates, row.size()))) seed[j] = 1;
@@ -132,7 +132,7 @@ std::uint64_t finish_part_bytes(std::uint64_t gathered, std::uint64_t queries, s
 // part's halo seeds); none without sharing. A part whose seeds outgrow the plan is split.
 std::uint64_t planned_seeds(std::uint64_t queries, const QuadricProjectionParams& q) {
   return q.share_stride > 1 ? 2 * queries / static_cast<std::uint64_t>(q.share_stride) +
-                                  static_cast<std::uint64_t>(q.normal_neighbors) + 1
+                                  static_cast<std::uint64_t>(share_candidates(q)) + 1
                             : 0;
 }
 
