@@ -4,6 +4,7 @@
 #include <array>
 #include <cassert>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <numbers>
 #include <numeric>
@@ -59,40 +60,72 @@ double reach_of(const Scratch& s, std::size_t count) {
   return std::sqrt(reach);
 }
 
-// row[q] += wa * a[q] for the columns q of rows P.. of the lower triangle, each rounded up to
-// a whole vector of four (the padding is summed, unread); unrolled at compile time.
-template <int P, int Terms, int Stride>
-[[gnu::always_inline]] inline void add_gram_rows(const double* a, double w, double* gram) {
-  if constexpr (P < Terms) {
-    constexpr int columns = std::min(Stride, (P / 4 + 1) * 4);
-    const double wa = w * a[P];
-    double* row = gram + P * Stride;
-    for (int q = 0; q < columns; ++q) row[q] += wa * a[q];
-    add_gram_rows<P + 1, Terms, Stride>(a, w, gram);
+// Four doubles in one vector register (AVX2), or two of SSE2 in the baseline's build.
+using Lane4 = double __attribute__((vector_size(32)));
+
+// The columns of row p of the lower triangle that are summed: 0..p rounded up to a whole
+// vector of four (the padding is summed, unread).
+template <int Stride>
+constexpr int gram_columns(int p) {
+  return std::min(Stride, (p / 4 + 1) * 4);
+}
+
+// Rows [R0, R1) of normal_equations' lower triangle (and with Rhs its right-hand side), each
+// entry summed over the rows of `design` with positive weight in the rows' order, every
+// product (w a_p) a_q as a plain loop would form it: the same bits. The sums stay in vector
+// registers across the rows of `design` (R1 - R0 rows and the right-hand side fit in
+// sixteen), where a loop over the whole triangle would load and store each of them at every
+// row.
+template <int R0, int R1, int Stride, bool Rhs>
+[[gnu::always_inline]] inline void gram_rows(const double* design, const double* h, const double* weights,
+                                             std::size_t count, double* gram, double* rhs) {
+  constexpr int kVectors = Stride / 4;
+  Lane4 sums[R1 - R0][kVectors] = {};
+  Lane4 rhs_sums[kVectors] = {};
+  for (std::size_t j = 0; j < count; ++j) {
+    const double w = weights[j];
+    if (w <= 0.0) continue;
+    const double* a = design + j * Stride;
+    Lane4 row[kVectors];
+#pragma GCC unroll 4
+    for (int c = 0; c < kVectors; ++c) std::memcpy(&row[c], a + 4 * c, sizeof(Lane4));
+    if constexpr (Rhs) {
+      const double wh = w * h[j];
+      const Lane4 b = {wh, wh, wh, wh};
+#pragma GCC unroll 4
+      for (int c = 0; c < kVectors; ++c) rhs_sums[c] += b * row[c];
+    }
+#pragma GCC unroll 16
+    for (int p = R0; p < R1; ++p) {
+      const double wa = w * a[p];
+      const Lane4 b = {wa, wa, wa, wa};
+      for (int c = 0; c < gram_columns<Stride>(p) / 4; ++c) sums[p - R0][c] += b * row[c];
+    }
   }
+  for (int p = R0; p < R1; ++p)
+    for (int c = 0; c < gram_columns<Stride>(p) / 4; ++c) std::memcpy(gram + p * Stride + 4 * c, &sums[p - R0][c], sizeof(Lane4));
+  if constexpr (Rhs)
+    for (int c = 0; c < kVectors; ++c) std::memcpy(rhs + 4 * c, &rhs_sums[c], sizeof(Lane4));
 }
 
 // The lower triangle of sum_j w_j a_j a_j^T into `gram` (kTerms rows of kStride, row p holding
 // columns 0..p and padding beyond) and sum_j w_j h_j a_j into `rhs`, over the rows a_j of
 // `design` whose weight is positive; returns how many those are. Every entry is summed in the
-// rows' order, whatever width the compiler vectorises the loops over the columns with.
+// rows' order (gram_rows), whatever width the vectors are.
 template <int Degree>
 [[gnu::always_inline]] inline std::size_t weighted_normal_equations(const double* design, const double* h, const double* weights,
                                       std::size_t count, double* gram, double* rhs) {
   constexpr int terms = kTerms<Degree>;
   constexpr int stride = kStride<Degree>;
   std::fill(gram, gram + terms * stride, 0.0);
-  std::fill(rhs, rhs + stride, 0.0);
-  std::size_t kept = 0;
-  for (std::size_t j = 0; j < count; ++j) {
-    const double w = weights[j];
-    if (w <= 0.0) continue;
-    ++kept;
-    const double* a = design + j * stride;
-    const double wh = w * h[j];
-    for (int q = 0; q < stride; ++q) rhs[q] += wh * a[q];
-    add_gram_rows<0, terms, stride>(a, w, gram);
+  if constexpr (terms <= 8) {
+    gram_rows<0, terms, stride, true>(design, h, weights, count, gram, rhs);
+  } else {
+    gram_rows<0, 8, stride, true>(design, h, weights, count, gram, rhs);
+    gram_rows<8, terms, stride, false>(design, h, weights, count, gram, rhs);
   }
+  std::size_t kept = 0;
+  for (std::size_t j = 0; j < count; ++j) kept += weights[j] <= 0.0 ? 0 : 1;
   return kept;
 }
 
