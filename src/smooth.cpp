@@ -368,14 +368,48 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
   return report;
 }
 
+namespace {
+
+// The centre of the cloud's bounding box, which the attributes' normals point away from.
+Vec3 box_centre(std::span<const Vec3> positions) {
+  Eigen::AlignedBox3d box;
+  for (const auto& p : positions) box.extend(p);
+  return !positions.empty() ? Vec3(box.center()) : Vec3(Vec3::Zero());
+}
+
+// `normal` oriented away from `centre` as seen from p.
+Vec3 oriented_away(const Vec3& normal, const Vec3& p, const Vec3& centre) {
+  return normal.dot(p - centre) < 0.0 ? Vec3(-normal) : normal;
+}
+
+}  // namespace
+
 PointAttributes compute_attributes(std::span<const Vec3> positions,
                                    const Neighborhoods& neighborhoods, const FlowParams& params,
                                    double lambda) {
   require(neighborhoods.size() == positions.size(), "compute_attributes: one neighbourhood row per point");
-  Eigen::AlignedBox3d box;
-  for (const auto& p : positions) box.extend(p);
-  const Vec3 centre = !positions.empty() ? Vec3(box.center()) : Vec3(Vec3::Zero());
-  return compute_attributes(positions, neighborhoods, centre, params, lambda);
+  return compute_attributes(positions, neighborhoods, box_centre(positions), params, lambda);
+}
+
+PointAttributes compute_normals(std::span<const Vec3> positions, const Neighborhoods& neighborhoods,
+                                const FlowParams& params, double lambda) {
+  const std::size_t n = neighborhoods.size();
+  require(n == positions.size(), "compute_normals: one neighbourhood row per point");
+  const Vec3 centre = box_centre(positions);
+  PointAttributes a;
+  a.normal.resize(n);
+  std::atomic<std::size_t> degenerate{0};
+  parallel_for(n, [&](std::size_t begin, std::size_t end) {
+    std::size_t bad = 0;
+    for (std::size_t i = begin; i < end; ++i) {
+      const Frame frame = point_frame(positions[i], neighborhoods.of(i), positions, params, lambda);
+      if (!frame.valid) ++bad;
+      a.normal[i] = oriented_away(frame.normal, positions[i], centre);
+    }
+    degenerate.fetch_add(bad, std::memory_order_relaxed);
+  }, 1024);
+  a.degenerate = degenerate.load();
+  return a;
 }
 
 PointAttributes compute_attributes(std::span<const Vec3> positions, NeighborhoodsView neighborhoods,
@@ -398,7 +432,7 @@ PointAttributes compute_attributes(std::span<const Vec3> positions, Neighborhood
       const PointState s = evaluate_point(positions[i], neighborhoods.of(i), positions, params, lambda, true);
       if (!s.valid) ++bad;
       const double sign = s.frame.normal.dot(positions[i] - centre) < 0.0 ? -1.0 : 1.0;
-      a.normal[i] = sign * s.frame.normal;
+      a.normal[i] = oriented_away(s.frame.normal, positions[i], centre);
       // The estimator's curvatures are positive where the surface bends toward its normal
       // (eq. 2); reported ones are positive where it bends away from the written normal, so
       // that a sphere with outward normals has k1 = k2 = +1/R. Negating a curvature pair

@@ -377,5 +377,37 @@ TEST(Smooth, AttributesOnSphereAreOrientedOutward) {
   EXPECT_THROW(compute_attributes(s.points, wrong, params, lambda), ParamError);
 }
 
+// The normals alone are compute_attributes' normals to the bit, with its count of degenerate
+// points, for the PCA and the gated robust frames, on a cloud with points that span no plane.
+TEST(Smooth, NormalsAloneAreTheAttributesNormals) {
+  const SurfaceSamples s = sample_sphere(3000, 2.0, 15);
+  std::vector<Vec3> points = s.points;
+  add_noise(points, 0.01, 16);
+  // Three points on a line far from the sphere: their own neighbourhoods span no plane.
+  for (int j = 0; j < 3; ++j) points.push_back(Vec3(10.0 + 0.1 * j, 10.0, 10.0));
+  NeighborParams near;
+  near.k = 2;
+  Neighborhoods n = build_neighborhoods(points, NeighborParams{});
+  const Neighborhoods line = build_neighborhoods(points, near);
+  for (std::size_t i = s.points.size(); i < points.size(); ++i) {
+    n.counts[i] = line.counts[i];
+    std::copy(line.of(i).begin(), line.of(i).end(), n.indices.begin() + static_cast<std::ptrdiff_t>(i * static_cast<std::size_t>(n.stride)));
+  }
+  for (const NormalEstimator estimator : {NormalEstimator::Pca, NormalEstimator::Robust}) {
+    FlowParams params;
+    params.normal_estimator = estimator;
+    params.robust.gate = 2.0;
+    const double lambda = auto_lambda(points, n, 2.0);
+    const PointAttributes all = compute_attributes(points, n, params, lambda);
+    const PointAttributes normals = compute_normals(points, n, params, lambda);
+    EXPECT_EQ(normals.normal, all.normal);
+    EXPECT_EQ(normals.degenerate, all.degenerate);
+    EXPECT_GE(all.degenerate, 3u);
+    EXPECT_TRUE(normals.k1.empty() && normals.d1.empty() && normals.feature.empty());
+  }
+  const Neighborhoods wrong = build_neighborhoods(std::vector<Vec3>(points.begin(), points.end() - 1), NeighborParams{});
+  EXPECT_THROW(compute_normals(points, wrong, FlowParams{}, 1.0), ParamError);
+}
+
 }  // namespace
 }  // namespace pointfair

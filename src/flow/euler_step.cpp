@@ -55,13 +55,19 @@ Frame gated_robust_frame(const Vec3& p, std::span<const Index> neighbors, std::s
 
 }  // namespace
 
+Frame point_frame(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points,
+                  const FlowParams& params, double lambda) {
+  if (neighbors.empty()) return Frame{};
+  return params.normal_estimator == NormalEstimator::Robust ? gated_robust_frame(p, neighbors, points, params, lambda)
+                                                            : compute_frame(p, neighbors, points);
+}
+
 PointState evaluate_point(const Vec3& p, std::span<const Index> neighbors,
                           std::span<const Vec3> points, const FlowParams& params, double lambda,
                           bool with_curvature) {
   PointState s;
   if (neighbors.empty()) return s;
-  s.frame = params.normal_estimator == NormalEstimator::Robust ? gated_robust_frame(p, neighbors, points, params, lambda)
-                                                               : compute_frame(p, neighbors, points);
+  s.frame = point_frame(p, neighbors, points, params, lambda);
   const bool needs_frame = params.flow == Flow::Anisotropic || params.constrain_normal ||
                            params.feature_gated || with_curvature;
   if (needs_frame && !s.frame.valid) return s;

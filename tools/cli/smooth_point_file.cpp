@@ -82,7 +82,10 @@ PointFileSmoothResult smooth_point_file(const PointFileSmooth& run) {
   PointAttributes attributes;
   if (need_attributes && result.smoothed) {
     check();
-    attributes = compute_attributes(table.positions, report.neighborhoods, params.flow, report.lambda);
+    // Normal columns alone need no curvature.
+    const bool normals_only = !output.attributes && output.colour_by == ColourBy::None;
+    attributes = normals_only ? compute_normals(table.positions, report.neighborhoods, params.flow, report.lambda)
+                              : compute_attributes(table.positions, report.neighborhoods, params.flow, report.lambda);
     result.degenerate = attributes.degenerate;
     // A folder's files take their normals when they are written.
     if (!folder) add_result_columns(table, attributes, output, output.attributes, curvature_type(attributes));

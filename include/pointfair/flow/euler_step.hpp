@@ -65,6 +65,11 @@ struct PointState {
   bool valid = false;
 };
 
+/// The frame evaluate_point gives p (the robust plane or PCA, as `params` choose): the same
+/// bits. Not valid with no neighbours.
+Frame point_frame(const Vec3& p, std::span<const Index> neighbors, std::span<const Vec3> points,
+                  const FlowParams& params, double lambda);
+
 /// State of point p with neighbours `neighbors` (indices into `points`) under `params`, with
 /// the resolved threshold `lambda`. Curvature and feature class are computed when
 /// `with_curvature` or when the flow needs them (feature gating).
