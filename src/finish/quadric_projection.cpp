@@ -147,10 +147,14 @@ template <int Degree>
   // Tangent coordinates in units of the fit's reach keep the normal equations well
   // conditioned; the constant term, the height above p, is unchanged by that.
   const double inv_reach = 1.0 / reach;
-  s.design.assign(count * stride, 0.0);
+  // Each row written whole, its padding zeroed here (the vector is not cleared first: that
+  // cost as much as the rows themselves).
+  if (s.design.size() < count * stride) s.design.resize(count * stride);
   for (std::size_t j = 0; j < count; ++j) {
     const Vec a = monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach);
-    std::copy(a.data(), a.data() + terms, s.design.data() + j * stride);
+    double* row = s.design.data() + j * stride;
+    std::copy(a.data(), a.data() + terms, row);
+    std::fill(row + terms, row + stride, 0.0);
   }
   // h minus the fit at row j.
   const auto residual = [&](std::size_t j, const Vec& c) {
