@@ -73,9 +73,9 @@ constexpr int gram_columns(int p) {
 // Rows [R0, R1) of normal_equations' lower triangle (and with Rhs its right-hand side), each
 // entry summed over the rows of `design` with positive weight in the rows' order, every
 // product (w a_p) a_q as a plain loop would form it: the same bits. The sums stay in vector
-// registers across the rows of `design` (R1 - R0 rows and the right-hand side fit in
-// sixteen), where a loop over the whole triangle would load and store each of them at every
-// row.
+// registers across the rows of `design` (the rows of one call and the right-hand side take 15
+// of AVX2's 16), where a loop over the whole triangle would load and store each of them at
+// every row.
 template <int R0, int R1, int Stride, bool Rhs>
 [[gnu::always_inline]] inline void gram_rows(const double* design, const double* h, const double* weights,
                                              std::size_t count, double* gram, double* rhs) {
