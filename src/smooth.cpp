@@ -377,9 +377,9 @@ Vec3 box_centre(std::span<const Vec3> positions) {
   return !positions.empty() ? Vec3(box.center()) : Vec3(Vec3::Zero());
 }
 
-// `normal` oriented away from `centre` as seen from p.
-Vec3 oriented_away(const Vec3& normal, const Vec3& p, const Vec3& centre) {
-  return normal.dot(p - centre) < 0.0 ? Vec3(-normal) : normal;
+// The sign that turns `normal` (at p) away from `centre`.
+double away_sign(const Vec3& normal, const Vec3& p, const Vec3& centre) {
+  return normal.dot(p - centre) < 0.0 ? -1.0 : 1.0;
 }
 
 }  // namespace
@@ -404,7 +404,7 @@ PointAttributes compute_normals(std::span<const Vec3> positions, const Neighborh
     for (std::size_t i = begin; i < end; ++i) {
       const Frame frame = point_frame(positions[i], neighborhoods.of(i), positions, params, lambda);
       if (!frame.valid) ++bad;
-      a.normal[i] = oriented_away(frame.normal, positions[i], centre);
+      a.normal[i] = away_sign(frame.normal, positions[i], centre) * frame.normal;
     }
     degenerate.fetch_add(bad, std::memory_order_relaxed);
   }, 1024);
@@ -431,8 +431,8 @@ PointAttributes compute_attributes(std::span<const Vec3> positions, Neighborhood
     for (std::size_t i = begin; i < end; ++i) {
       const PointState s = evaluate_point(positions[i], neighborhoods.of(i), positions, params, lambda, true);
       if (!s.valid) ++bad;
-      const double sign = s.frame.normal.dot(positions[i] - centre) < 0.0 ? -1.0 : 1.0;
-      a.normal[i] = oriented_away(s.frame.normal, positions[i], centre);
+      const double sign = away_sign(s.frame.normal, positions[i], centre);
+      a.normal[i] = sign * s.frame.normal;
       // The estimator's curvatures are positive where the surface bends toward its normal
       // (eq. 2); reported ones are positive where it bends away from the written normal, so
       // that a sphere with outward normals has k1 = k2 = +1/R. Negating a curvature pair

@@ -75,16 +75,18 @@ constexpr int gram_columns(int p) {
 // product (w a_p) a_q as a plain loop would form it: the same bits. The sums stay in vector
 // registers across the rows of `design` (the rows of one call and the right-hand side take 15
 // of AVX2's 16), where a loop over the whole triangle would load and store each of them at
-// every row.
+// every row. Returns how many rows of `design` have a positive weight.
 template <int R0, int R1, int Stride, bool Rhs>
-[[gnu::always_inline]] inline void gram_rows(const double* design, const double* h, const double* weights,
+[[gnu::always_inline]] inline std::size_t gram_rows(const double* design, const double* h, const double* weights,
                                              std::size_t count, double* gram, double* rhs) {
   constexpr int kVectors = Stride / 4;
   Lane4 sums[R1 - R0][kVectors] = {};
   Lane4 rhs_sums[kVectors] = {};
+  std::size_t kept = 0;
   for (std::size_t j = 0; j < count; ++j) {
     const double w = weights[j];
     if (w <= 0.0) continue;
+    ++kept;
     const double* a = design + j * Stride;
     Lane4 row[kVectors];
 #pragma GCC unroll 4
@@ -106,6 +108,7 @@ template <int R0, int R1, int Stride, bool Rhs>
     for (int c = 0; c < gram_columns<Stride>(p) / 4; ++c) std::memcpy(gram + p * Stride + 4 * c, &sums[p - R0][c], sizeof(Lane4));
   if constexpr (Rhs)
     for (int c = 0; c < kVectors; ++c) std::memcpy(rhs + 4 * c, &rhs_sums[c], sizeof(Lane4));
+  return kept;
 }
 
 // The lower triangle of sum_j w_j a_j a_j^T into `gram` (kTerms rows of kStride, row p holding
@@ -119,14 +122,12 @@ template <int Degree>
   constexpr int stride = kStride<Degree>;
   std::fill(gram, gram + terms * stride, 0.0);
   if constexpr (terms <= 8) {
-    gram_rows<0, terms, stride, true>(design, h, weights, count, gram, rhs);
+    return gram_rows<0, terms, stride, true>(design, h, weights, count, gram, rhs);
   } else {
-    gram_rows<0, 8, stride, true>(design, h, weights, count, gram, rhs);
+    const std::size_t kept = gram_rows<0, 8, stride, true>(design, h, weights, count, gram, rhs);
     gram_rows<8, terms, stride, false>(design, h, weights, count, gram, rhs);
+    return kept;
   }
-  std::size_t kept = 0;
-  for (std::size_t j = 0; j < count; ++j) kept += weights[j] <= 0.0 ? 0 : 1;
-  return kept;
 }
 
 // The polynomial fitted to the first `count` points of (s.u, s.v, s.h), weighted by
