@@ -315,6 +315,15 @@ TEST_F(TiledFinishTest, ResumeWithOtherFinishParametersIsRefused) {
        {other_k, other_passes, other_degree, other_angle, other_reach, other_min_k}) {
     EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, other), resume), ParamError);
   }
+  // The refusal names what differs, with the run's value and this run's.
+  try {
+    smooth_out_of_core(path("in.h5"), path("run.h5"), test::finishing(params, other_k), resume);
+    ADD_FAILURE() << "resumed with another quadric k";
+  } catch (const ParamError& e) {
+    EXPECT_NE(std::string(e.what()).find("quadric_k: " + std::to_string(q.k) + " in the run, 31 now"),
+              std::string::npos)
+        << e.what();
+  }
   SmoothParams free_placement = test::finishing(params, q);
   free_placement.placement = Placement::Free;
   EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), free_placement, resume), ParamError)

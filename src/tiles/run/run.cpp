@@ -3,6 +3,7 @@
 
 #include <cstdio>
 
+#include "key_difference.hpp"
 #include "parameter_forms.hpp"
 #include "pointfair/finish/quadric_parameters.hpp"
 #include "pointfair/smooth_parameters.hpp"
@@ -297,9 +298,11 @@ void Run::open_or_create() {
     }
     if (usable) {
       const std::string stored = file().string_attribute(layout::run, "parameters");
-      if (stored != key())
-        throw ParamError(partial.string() + " was started with other parameters (" + stored +
-                         "); run with those, or remove the file");
+      const std::string current = key();
+      if (stored != current)
+        throw ParamError(partial.string() + " was started with other parameters (" +
+                         detail::key_differences(stored, current) + "; the run's whole key: " + stored +
+                         "): run with the run's values, or remove the file to start again");
       // Runs started before the digest was recorded are checked by their point count only.
       const bool other_input =
           point_count(file()) != n_ || (file().has_attribute(layout::run, "input_digest") &&
