@@ -29,18 +29,32 @@ namespace {
 template <int Degree>
 constexpr int kTerms = (Degree + 1) * (Degree + 2) / 2;
 
+// The terms of degree d come from those of degree d - 1: each times u, then the last one times
+// v as well. Written out as named products (the same products in the same order as that
+// recursion): built in an array, the compiler stored the terms and loaded them back in pairs,
+// and each such load waited on two stores (a sixth of the fits' time).
+template <int Degree>
+[[gnu::always_inline]] inline void write_monomials(double u, double v, double* m) {
+  static_assert(Degree == 2 || Degree == 3);
+  const double uu = u * u, vu = v * u, vv = v * v;
+  m[0] = 1.0;
+  m[1] = 1.0 * u;
+  m[2] = 1.0 * v;
+  m[3] = uu;
+  m[4] = vu;
+  m[5] = vv;
+  if constexpr (Degree == 3) {
+    m[6] = uu * u;
+    m[7] = vu * u;
+    m[8] = vv * u;
+    m[9] = vv * v;
+  }
+}
+
 template <int Degree>
 Eigen::Matrix<double, kTerms<Degree>, 1> monomials(double u, double v) {
   Eigen::Matrix<double, kTerms<Degree>, 1> m;
-  m[0] = 1.0;
-  int t = 1;
-  for (int d = 1; d <= Degree; ++d) {
-    // The terms of degree d from those of degree d - 1 (which start at t - d): times u, then
-    // the last one times v as well.
-    const int previous = t - d;
-    for (int i = 0; i < d; ++i) m[t++] = m[previous + i] * u;
-    m[t++] = m[previous + d - 1] * v;
-  }
+  write_monomials<Degree>(u, v, m.data());
   return m;
 }
 
@@ -152,9 +166,8 @@ template <int Degree>
   // cost as much as the rows themselves).
   if (s.design.size() < count * stride) s.design.resize(count * stride);
   for (std::size_t j = 0; j < count; ++j) {
-    const Vec a = monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach);
     double* row = s.design.data() + j * stride;
-    std::copy(a.data(), a.data() + terms, row);
+    write_monomials<Degree>(s.u[j] * inv_reach, s.v[j] * inv_reach, row);
     std::fill(row + terms, row + stride, 0.0);
   }
   // h minus the fit at row j.
