@@ -357,7 +357,6 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
   std::vector<CoarseLevelReport> levels;
   SmoothReport report = flow_with_levels(positions, requested, options, levels);
   report.coarse_levels = std::move(levels);
-  if (!options.keep_neighborhoods) report.neighborhoods = Neighborhoods{};
   if (!report.coarse_levels.empty())
     report.seconds_coarse = seconds_since(t0) - report.seconds_neighbors - report.seconds_steps;
   if (!requested.finish) return report;

@@ -74,22 +74,22 @@ struct SmoothParams {
   /// 16 at 0.1% (README, Quality).
   NeighborParams neighbors{.k = 0};
   /// The flow. Unlike FlowParams{} (the paper's step), the defaults measure the cut-off's
-  /// curvatures from each point's foot on its fitted plane (CutoffOrigin::Plane), fit that
-  /// plane robustly (NormalEstimator::Robust), so that it does not straddle sharp edges, and
-  /// take steps of tau 1 (with shrink_compensation below, larger steps stay stable and need
-  /// fewer of them; 1 against 0.8: a fifth fewer steps under heavy noise for the same result,
-  /// the quality benchmark's verdicts as they were, docs/defaults.md). Measured on fandisk (100K points, seed 1; RMS distance in 1e-3 of the
-  /// diagonal / normal error near creases, clean samples 13.6°) with all of this section's
-  /// defaults: 0.279 / 14.2° at 0.1% noise and 1.134 / 22.7° at 0.5%, against 0.353 / 15.9°
-  /// and 1.446 / 26.7° without compensation (tau 0.5, stop at 0.2) and 0.74 / 16.9° and
-  /// 2.03 / 33.3° for the paper's reading (paper_smooth_params). README, Quality. The robust
-  /// plane reweights once (RobustFrameParams::iterations 1, not 3): the steps take half the
-  /// time, and over the quality benchmark the normal error near creases rose by at most 0.6°,
-  /// RMS by at most 1.2% (smooth models) and fell on the CAD models (docs/defaults.md). The
-  /// robust plane is fitted only where the PCA plane is ambiguous (RobustFrameParams::gate 2:
-  /// across creases and tight bends, not where noise alone spreads the neighbourhood); the
-  /// steps take a third to a half of the time, with the quality benchmark's table in
-  /// docs/defaults.md.
+  /// curvatures from each point's foot on its fitted plane (CutoffOrigin::Plane), fit that plane
+  /// robustly (NormalEstimator::Robust), so that it does not straddle sharp edges, and take steps
+  /// of tau 1 (with shrink_compensation below, larger steps stay stable and need fewer of them; 1
+  /// against 0.8: a fifth fewer steps under heavy noise for the same result, the quality
+  /// benchmark's verdicts as they were, docs/defaults.md). Measured on fandisk (100K points, seed
+  /// 1; RMS distance in 1e-3 of the diagonal / normal error near creases, clean samples 13.6°)
+  /// with all of this section's defaults (tau 0.8 then): 0.279 / 14.2° at 0.1% noise and 1.134 /
+  /// 22.7° at 0.5%, against 0.353 / 15.9° and 1.446 / 26.7° without compensation (tau 0.5, stop
+  /// at 0.2) and 0.74 / 16.9° and 2.03 / 33.3° for the paper's reading (paper_smooth_params).
+  /// README, Quality. The robust plane reweights once (RobustFrameParams::iterations 1, not 3):
+  /// the steps take half the time, and over the quality benchmark the normal error near creases
+  /// rose by at most 0.6°, RMS by at most 1.2% (smooth models) and fell on the CAD models
+  /// (docs/defaults.md). The robust plane is fitted only where the PCA plane is ambiguous
+  /// (RobustFrameParams::gate 2: across creases and tight bends, not where noise alone spreads
+  /// the neighbourhood); the steps take a third to a half of the time, with the quality
+  /// benchmark's table in docs/defaults.md.
   FlowParams flow = [] {
     FlowParams f;
     f.cutoff_origin = CutoffOrigin::Plane;

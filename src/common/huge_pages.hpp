@@ -1,7 +1,9 @@
 #pragma once
-// Large arrays written or read at random places (a neighbour list per point, in the input's
-// point order) miss the TLB on almost every access with 4 KiB pages. On Linux, such an array
-// asks for transparent huge pages before its pages are first touched. Internal: not installed.
+// Large arrays read at random places (the cell grid's coordinates, which every query reads
+// around its cell) miss the TLB on almost every access with 4 KiB pages. On Linux, such an
+// array asks for transparent huge pages before its pages are first touched. An array written
+// once and read in order gains little and pays the huge pages' first touch (the neighbour
+// lists, knn_grid.cpp). Internal: not installed.
 #include <cstddef>
 #include <vector>
 

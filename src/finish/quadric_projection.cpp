@@ -38,8 +38,8 @@ template <int Degree>
   static_assert(Degree == 2 || Degree == 3);
   const double uu = u * u, vu = v * u, vv = v * v;
   m[0] = 1.0;
-  m[1] = 1.0 * u;
-  m[2] = 1.0 * v;
+  m[1] = u;  // 1 u and 1 v: exact
+  m[2] = v;
   m[3] = uu;
   m[4] = vu;
   m[5] = vv;

@@ -13,9 +13,9 @@
 // (eigenvalue 2 of the umbrella operator: two points, or two clusters) the uncapped step
 // multiplies their distance by 1 - 2 tau (1 + beta), -3 at tau 1 and beta 1; capped,
 // by 1 - 2 tau (-1 at tau 1: the mode is then not damped, but it needs neighbourhoods that
-// split into two groups each seeing only the other, two points alone; a point needs two
-// neighbours for a plane and moves only then). Where neighbours move alike (the surface's curvature, the low frequencies
-// that shrink it) |c_i| < |u_i| and the cap is inactive. The sums
+// split into two groups each seeing only the other, such as two points alone, which then swap
+// sides at the same distance). Where neighbours move alike (the surface's curvature, the low
+// frequencies that shrink it) |c_i| < |u_i| and the cap is inactive. The sums
 // run over the neighbour list in its canonical order, so the result depends on nothing but
 // the point's neighbourhood and is the same for any thread count or tiling.
 #include <span>
