@@ -183,7 +183,8 @@ tau, flow, cutoff, cutoff_origin, lambda_, lambda_schedule, stop_lambda_ratio, s
 shrink_compensation, momentum, momentum_gate, lambda_factor, constrain_normal, normal, robust_seed, robust_iterations,
 robust_bound, robust_gate, rebuild_every, features, edge_quotient, feature_threshold, feature_turn,
 feature_gated, weights, density_floor, move, quadric_finish, quadric_k, quadric_angle,
-quadric_degree, quadric_passes, quadric_iterations, quadric_curvature_reach, quadric_min_k,
+quadric_degree, quadric_passes, quadric_iterations, quadric_early_degree,
+quadric_early_iterations, quadric_curvature_reach, quadric_min_k,
 quadric_share, quadric_share_turn),
 paper=True (the --paper preset; the other options override it), threads (0: all cores),
 neighbors_from ((N, 3) positions to build the neighbourhoods from), progress (called as

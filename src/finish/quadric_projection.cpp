@@ -230,6 +230,10 @@ void QuadricProjectionParams::validate() const {
   require(min_k >= 10, "quadric min k must be >= 10, got " + std::to_string(min_k));
   require(passes >= 1 && passes <= 10, "quadric passes must be in 1..10, got " + std::to_string(passes));
   require(iterations >= 0 && iterations <= 20, "quadric iterations must be in 0..20, got " + std::to_string(iterations));
+  require(early_degree == 2 || early_degree == 3,
+          "quadric early degree must be 2 or 3, got " + std::to_string(early_degree));
+  require(early_iterations >= 0 && early_iterations <= 20,
+          "quadric early iterations must be in 0..20, got " + std::to_string(early_iterations));
   require(inlier_bound > 0.0, "quadric inlier bound must be > 0, got " + std::to_string(inlier_bound));
   require(placement_turn >= 0.0 && std::isfinite(placement_turn),
           "quadric placement turn must be >= 0, got " + std::to_string(placement_turn));
@@ -238,6 +242,15 @@ void QuadricProjectionParams::validate() const {
   require(share_turn >= 0.0 && std::isfinite(share_turn),
           "quadric share turn must be >= 0, got " + std::to_string(share_turn));
   frame.validate();
+}
+
+QuadricProjectionParams params_of_pass(const QuadricProjectionParams& params, int pass) {
+  QuadricProjectionParams of_pass = params;
+  if (pass + 1 < params.passes) {
+    of_pass.degree = params.early_degree;
+    of_pass.iterations = params.early_iterations;
+  }
+  return of_pass;
 }
 
 namespace {
@@ -681,6 +694,7 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
   }
   for (int pass = 0; pass < params.passes; ++pass) {
     const bool last = pass + 1 == params.passes;
+    const QuadricProjectionParams fit_params = params_of_pass(params, pass);
     // One grid a pass for every block's queries (a grid a block cost a sort of the whole
     // cloud per kQuadricBlock points: quadratic in the cloud's size), and with sharing a
     // second one sized for the short lists (the normals' and the placements'): on the fits'
@@ -721,7 +735,7 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
         for (std::size_t part = 0; part < count; part += kQuadricProgressBlock) {
           const std::size_t size = std::min(kQuadricProgressBlock, count - part);
           fit_rows_to_quadrics(stored, normals, NeighborhoodsView(rows).rows(part, size),
-                               std::span<const Index>(seeds).subspan(first + part, size), params,
+                               std::span<const Index>(seeds).subspan(first + part, size), fit_params,
                                std::span<QuadricFit>(shared.fits).subspan(first + part, size));
           report(size);
         }
@@ -747,7 +761,7 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
         const std::size_t size = std::min(kQuadricProgressBlock, count - part);
         const NeighborhoodsView part_rows = NeighborhoodsView(rows).rows(part, size);
         project_rows_to_quadrics(
-            stored, normals, part_rows, std::span<const Index>(stored_queries).subspan(part, size), params,
+            stored, normals, part_rows, std::span<const Index>(stored_queries).subspan(part, size), fit_params,
             std::span<Vec3>(out).subspan(first + part, size),
             placing ? std::span<const Vec3>(block_anchors).subspan(part, size) : std::span<const Vec3>{},
             sharing ? &shared : nullptr, sharing ? std::span<char>(left).subspan(part, size) : std::span<char>{});
@@ -773,7 +787,7 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
         grid_neighborhoods(grid, queries, params.k, inf, own_lists);
         relabel_neighborhoods_in_place(own_lists, row_of);
         own_out.resize(size);
-        project_rows_to_quadrics(stored, normals, own_lists, own_queries, params, own_out, own_anchors);
+        project_rows_to_quadrics(stored, normals, own_lists, own_queries, fit_params, own_out, own_anchors);
         for (std::size_t r = 0; r < size; ++r) out[first + own_rows[part + r]] = own_out[r];
         report(size);
       }

@@ -19,10 +19,12 @@ std::uint64_t in_core_finish_bytes(std::uint64_t points, const QuadricProjection
   // (SmoothParams::placement) and the copy in Morton order with the order and its inverse
   // (finish_with_quadrics), the pass's grid, and one block of lists (4 bytes an entry, a
   // count per row): the fits' k-long ones, or the normals' shorter ones in the same storage.
-  // With fit sharing, the seeds' fits and every point's index into them.
+  // With fit sharing, the seeds' fits and every point's index into them, and a second grid
+  // for the short lists.
   const std::uint64_t block = std::min<std::uint64_t>(points, kQuadricBlock);
+  const bool sharing = q.share_stride > 1;
   const std::uint64_t shared =
-      q.share_stride > 1 ? 4 + (sizeof(QuadricFit) + 4) / static_cast<std::uint64_t>(q.share_stride) + 1 : 0;
+      sharing ? 4 + (sizeof(QuadricFit) + 4) / static_cast<std::uint64_t>(q.share_stride) + 1 + 50 : 0;
   return points * (4 * 24 + 8 + 50 + shared) + block * (4 * static_cast<std::uint64_t>(q.k) + 2);
 }
 

@@ -60,6 +60,8 @@ std::map<std::string, std::string> library_defaults() {
       {"quadric-degree", text(q.degree)},
       {"quadric-passes", text(q.passes)},
       {"quadric-iterations", text(q.iterations)},
+      {"quadric-early-degree", text(q.early_degree)},
+      {"quadric-early-iterations", text(q.early_iterations)},
       {"quadric-curvature-reach", text(q.curvature_reach)},
       {"quadric-min-k", text(q.min_k)},
       {"coarse-level", p.coarse ? "on" : "off"},

@@ -58,18 +58,26 @@ struct Crease {
   }
 };
 
+// At the defaults (k 200; the first pass's fits not reweighted, which alone on this raw noise
+// measured mean radius 0.9992, RMS 0.0016 against 0.0014 reweighted: the flow runs before it
+// in a smoothing run) and with 60-point fits reweighted in both passes.
 TEST(QuadricProjection, RemovesNoiseFromASphereWithoutShrinkingIt) {
-  std::vector<Vec3> p = sample_sphere(4000, 1.0, 7).points;
-  add_noise(p, 0.01, 8);
-  const double before = test::unit_sphere_rms(p);
-  QuadricProjectionParams params;
-  params.k = 60;
-  finish_with_quadrics(p, params);
-  const double after = test::unit_sphere_rms(p);
-  EXPECT_LT(after, 0.4 * before) << "before " << before << ", after " << after;
-  double mean = 0.0;
-  for (const Vec3& x : p) mean += x.norm();
-  EXPECT_NEAR(mean / static_cast<double>(p.size()), 1.0, 2e-3);
+  for (const int k : {200, 60}) {
+    std::vector<Vec3> p = sample_sphere(4000, 1.0, 7).points;
+    add_noise(p, 0.01, 8);
+    const double before = test::unit_sphere_rms(p);
+    QuadricProjectionParams params;
+    if (k != params.k) {
+      params.k = k;
+      params.early_iterations = params.iterations;
+    }
+    finish_with_quadrics(p, params);
+    const double after = test::unit_sphere_rms(p);
+    EXPECT_LT(after, 0.4 * before) << "before " << before << ", after " << after;
+    double mean = 0.0;
+    for (const Vec3& x : p) mean += x.norm();
+    EXPECT_NEAR(mean / static_cast<double>(p.size()), 1.0, 2e-3) << "k " << k;
+  }
 }
 
 // The normal test keeps each fit on its own face: near a right-angled crease, the points end
@@ -145,19 +153,34 @@ TEST(QuadricProjection, ACubicFitFollowsACubicSurfaceToItsBorder) {
   EXPECT_GT((quadric - p[border]).norm(), 3e-5);
 }
 
-// passes = 2 is the finish run twice, to the bit.
+// passes = 2 is the finish run twice, to the bit: first with the early passes' degree and
+// reweightings (params_of_pass), then with the last's.
 TEST(QuadricProjection, TwoPassesAreTheFinishTwice) {
   std::vector<Vec3> twice = sample_sphere(2000, 1.0, 3).points;
   add_noise(twice, 0.01, 4);
-  std::vector<Vec3> once_more = twice;
+  std::vector<Vec3> once_more = twice, last_twice = twice;
   QuadricProjectionParams params;
   params.k = 40;
-  params.passes = 1;
-  finish_with_quadrics(once_more, params);
-  finish_with_quadrics(once_more, params);
   params.passes = 2;
+  params.early_degree = 2;
+  params.early_iterations = 0;
+  const QuadricProjectionParams first = params_of_pass(params, 0), last = params_of_pass(params, 1);
+  EXPECT_EQ(first.degree, 2);
+  EXPECT_EQ(first.iterations, 0);
+  EXPECT_EQ(last.degree, params.degree);
+  EXPECT_EQ(last.iterations, params.iterations);
+  for (QuadricProjectionParams one : {first, last}) {
+    one.passes = 1;
+    finish_with_quadrics(once_more, one);
+  }
   finish_with_quadrics(twice, params);
   EXPECT_EQ(twice, once_more);
+  // The early pass is not the last one's: with the last's parameters twice, other bits.
+  QuadricProjectionParams same = params;
+  same.early_degree = params.degree;
+  same.early_iterations = params.iterations;
+  finish_with_quadrics(last_twice, same);
+  EXPECT_NE(last_twice, twice);
 }
 
 // A narrow bump on a plane: 200-point fits flatten it; fits bounded by the pilot curvature
@@ -253,7 +276,7 @@ TEST(QuadricProjection, PassesWithAnchorsGiveThePlainPassesBits) {
     const Neighborhoods nb = quadric_neighborhoods(plain, params);
     const std::vector<Vec3> normals = neighbourhood_normals(plain, nb, params);
     std::vector<Vec3> next(plain.size());
-    project_rows_to_quadrics(plain, normals, nb, {}, params, next,
+    project_rows_to_quadrics(plain, normals, nb, {}, params_of_pass(params, pass), next,
                              pass + 1 == params.passes ? std::span<const Vec3>(anchors) : std::span<const Vec3>{});
     plain.swap(next);
   }
@@ -394,6 +417,8 @@ TEST(QuadricProjection, RefusesBadParameters) {
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.share_stride = 0; })), ParamError);
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.share_stride = 65; })), ParamError);
   EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.share_turn = -0.1; })), ParamError);
+  EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.early_degree = 1; })), ParamError);
+  EXPECT_THROW(finish_with_quadrics(p, with([](auto& q) { q.early_iterations = 21; })), ParamError);
 }
 
 }  // namespace

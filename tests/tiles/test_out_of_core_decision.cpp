@@ -22,10 +22,10 @@ TEST(InCoreEstimate, TinyCases) {
   finish.normal_neighbors = 20;
   finish.share_stride = 1;
   EXPECT_EQ(in_core_finish_bytes(10, finish), 10u * (4 * 24 + 8 + 50) + 10u * (4 * 100 + 2));
-  // Fit sharing: an index a point, and a fit and its index a seed.
+  // Fit sharing: an index a point, a fit and its index a seed, and the short lists' grid.
   finish.share_stride = 4;
   EXPECT_EQ(in_core_finish_bytes(10, finish),
-            10u * (4 * 24 + 8 + 50 + 4 + (sizeof(QuadricFit) + 4) / 4 + 1) + 10u * (4 * 100 + 2));
+            10u * (4 * 24 + 8 + 50 + 4 + (sizeof(QuadricFit) + 4) / 4 + 1 + 50) + 10u * (4 * 100 + 2));
 }
 
 TEST(InCoreEstimate, TheAutomaticKIsSizedForItsLargest) {

@@ -47,6 +47,8 @@ std::string reference_finish_key(const QuadricProjectionParams& q) {
     << " quadric_frame_iterations=" << q.frame.iterations << " quadric_frame_bound=" << q.frame.inlier_bound
     << " quadric_placement_turn=" << q.placement_turn;
   if (q.share_stride != 1) s << " quadric_share=" << q.share_stride << " quadric_share_turn=" << q.share_turn;
+  if (q.passes > 1 && (q.early_degree != q.degree || q.early_iterations != q.iterations))
+    s << " quadric_early_degree=" << q.early_degree << " quadric_early_iterations=" << q.early_iterations;
   return s.str();
 }
 

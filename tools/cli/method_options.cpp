@@ -297,6 +297,14 @@ void add_finish_options(ArgumentParser& p, SmoothParams& s) {
           "Tukey reweighting passes of each fit after its first, unweighted one (0..20). " +
               finish_default("quadric_iterations") + ".",
           [finish](std::string_view v) { finish().iterations = parse_int(v, "--quadric-iterations"); });
+  p.value("quadric-early-degree", "2|3",
+          "Degree of the height fields of the passes before the last, which only bring the "
+          "points near the surface for the last pass's fits. " + finish_default("quadric_early_degree") + ".",
+          [finish](std::string_view v) { finish().early_degree = parse_int(v, "--quadric-early-degree"); });
+  p.value("quadric-early-iterations", "N",
+          "Tukey reweighting passes of each fit of the passes before the last (0..20). " +
+              finish_default("quadric_early_iterations") + ".",
+          [finish](std::string_view v) { finish().early_iterations = parse_int(v, "--quadric-early-iterations"); });
   p.value("quadric-curvature-reach", "C",
           "Fit each quadric only to the neighbours within C / kappa of the point, kappa the "
           "largest principal curvature of a pilot quadric over its --quadric-min-k nearest: "

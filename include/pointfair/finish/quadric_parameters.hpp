@@ -13,7 +13,13 @@ namespace pointfair {
 
 using QuadricParameter = Parameter<QuadricProjectionParams>;
 
-inline constexpr std::array<QuadricParameter, 15> kQuadricParameters{{
+/// Whether the passes before the last fit otherwise than the last
+/// (QuadricProjectionParams::early_degree, early_iterations).
+constexpr bool early_passes_differ(const QuadricProjectionParams& q) {
+  return q.passes > 1 && (q.early_degree != q.degree || q.early_iterations != q.iterations);
+}
+
+inline constexpr std::array<QuadricParameter, 17> kQuadricParameters{{
     {"quadric_k", "k", "quadric_k", [](const QuadricProjectionParams& q) { return integer_value(q.k); }},
     {"quadric_normal_neighbors", "", "",
      [](const QuadricProjectionParams& q) { return integer_value(q.normal_neighbors); }},
@@ -38,11 +44,18 @@ inline constexpr std::array<QuadricParameter, 15> kQuadricParameters{{
      [](const QuadricProjectionParams& q) { return q.share_stride != 1; }},
     {"quadric_share_turn", "share_turn", "", [](const QuadricProjectionParams& q) { return real_value(q.share_turn); },
      [](const QuadricProjectionParams& q) { return q.share_stride != 1; }},
+    // Named in the key only where the early passes differ from the last: runs started
+    // before them (every pass as the last) still resume with those values.
+    {"quadric_early_degree", "early_degree", "",
+     [](const QuadricProjectionParams& q) { return integer_value(q.early_degree); }, early_passes_differ},
+    {"quadric_early_iterations", "early_iterations", "",
+     [](const QuadricProjectionParams& q) { return integer_value(q.early_iterations); }, early_passes_differ},
 }};
 
 /// The --json block's order of the table's entries (by their --json names), after "enabled".
-inline constexpr std::array<std::string_view, 9> kQuadricJsonOrder{
-    "k", "angle_degrees", "degree", "passes", "iterations", "curvature_reach", "min_k", "share", "share_turn"};
+inline constexpr std::array<std::string_view, 11> kQuadricJsonOrder{
+    "k", "angle_degrees", "degree", "passes", "iterations", "early_degree", "early_iterations",
+    "curvature_reach", "min_k", "share", "share_turn"};
 static_assert(covers<QuadricProjectionParams>(kQuadricParameters, &QuadricParameter::json, kQuadricJsonOrder));
 static_assert(names_only_entries<QuadricProjectionParams>(kQuadricParameters, &QuadricParameter::json,
                                                           kQuadricJsonOrder));

@@ -60,6 +60,16 @@ struct QuadricProjectionParams {
   /// Passes over the cloud, each with neighbourhoods, normals and fits from the last one's
   /// result; 1..10.
   int passes = 2;
+  /// The passes before the last (beyond jet fitting) fit a height field of early_degree (2 or
+  /// 3) with early_iterations reweightings (0..20): they only bring the points near the
+  /// surface for the last pass's normals and fits, which place them. Not reweighted there,
+  /// the cubic measured as good or better and cheaper: the quality benchmark's CAD models
+  /// 0.3-2.4% lower RMS, the smooth ones within 1% but the torus at 0.1% noise (+2.2%); the
+  /// 1M-point fandisk at 0.5% RMS 0.722 against 0.738 in 0.92 of the finish's time. A quadric
+  /// there (2) scored better still on the CAD models but lost 14% on the bunny at 0.1%
+  /// (docs/defaults.md).
+  int early_degree = 3;
+  int early_iterations = 0;
   /// Fit sharing (beyond jet fitting): 1 in share_stride points (drawn by a hash of the point's
   /// index in the input, whatever the tiling: is_share_seed) fits its own cubic, a seed; every
   /// other point takes the fit of the nearest seed on its own face among its
@@ -76,6 +86,10 @@ struct QuadricProjectionParams {
 
   void validate() const;
 };
+
+/// The parameters of pass `pass` (0-based) of the finish: `params` with the degree and the
+/// reweightings of the early passes for every pass before the last.
+QuadricProjectionParams params_of_pass(const QuadricProjectionParams& params, int pass);
 
 /// One point's fit, kept for its neighbours to share (QuadricProjectionParams::share_stride).
 struct QuadricFit {

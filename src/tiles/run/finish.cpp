@@ -310,7 +310,7 @@ bool Run::run_finish(OutOfCoreReport& report) {
       } else {
         anchors.clear();
       }
-      finish_tile(t, q, anchors, result);
+      finish_tile(t, params_of_pass(q, pass), anchors, result);
       target.write_rows(tiles_.offsets[t], rows, result.data()->data(), h5::Transfer::Collective);
       progress("finish", t + 1 - first_tile_, end_tile_ - first_tile_);
     }
