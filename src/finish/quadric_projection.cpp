@@ -8,6 +8,7 @@
 #include <limits>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -703,8 +704,9 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
     // cells change only the speed, never the lists.
     const int placing_k = sharing ? static_cast<int>(share_candidates(params)) : params.k;
     const CellGrid grid = build_cell_grid(points, params.k, inf);
-    const CellGrid near_grid = placing_k < params.k ? build_cell_grid(points, placing_k, inf) : CellGrid{};
-    const CellGrid& short_grid = placing_k < params.k ? near_grid : grid;
+    const std::optional<CellGrid> near_grid =
+        placing_k < params.k ? std::optional(build_cell_grid(points, placing_k, inf)) : std::nullopt;
+    const CellGrid& short_grid = near_grid ? *near_grid : grid;
     const auto block_queries = [&](std::size_t first, std::size_t count, int k) {
       queries.assign(order.begin() + static_cast<std::ptrdiff_t>(first),
                      order.begin() + static_cast<std::ptrdiff_t>(first + count));

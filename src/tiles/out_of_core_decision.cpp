@@ -22,9 +22,8 @@ std::uint64_t in_core_finish_bytes(std::uint64_t points, const QuadricProjection
   // With fit sharing, the seeds' fits and every point's index into them, and a second grid
   // for the short lists.
   const std::uint64_t block = std::min<std::uint64_t>(points, kQuadricBlock);
-  const bool sharing = q.share_stride > 1;
   const std::uint64_t shared =
-      sharing ? 4 + (sizeof(QuadricFit) + 4) / static_cast<std::uint64_t>(q.share_stride) + 1 + 50 : 0;
+      q.share_stride > 1 ? 4 + (sizeof(QuadricFit) + 4) / static_cast<std::uint64_t>(q.share_stride) + 1 + 50 : 0;
   return points * (4 * 24 + 8 + 50 + shared) + block * (4 * static_cast<std::uint64_t>(q.k) + 2);
 }
 

@@ -300,6 +300,7 @@ bool Run::run_finish(OutOfCoreReport& report) {
     neighbor_source_ = current_source();
     measure_bounds();
     h5::Dataset target = file().dataset(positions_buffer(target_buffer()));
+    const QuadricProjectionParams pass_params = params_of_pass(q, pass);
     for (std::size_t t = first_tile_; t < end_tile_; ++t) {
       const std::uint64_t rows = tiles_.rows(t);
       if (rows == 0) continue;
@@ -310,7 +311,7 @@ bool Run::run_finish(OutOfCoreReport& report) {
       } else {
         anchors.clear();
       }
-      finish_tile(t, params_of_pass(q, pass), anchors, result);
+      finish_tile(t, pass_params, anchors, result);
       target.write_rows(tiles_.offsets[t], rows, result.data()->data(), h5::Transfer::Collective);
       progress("finish", t + 1 - first_tile_, end_tile_ - first_tile_);
     }
