@@ -6,6 +6,8 @@
 #include <vector>
 
 #include "pointfair/common/parallel.hpp"
+#include "pointfair/finish/quadric_projection.hpp"
+#include "pointfair/frames/robust_frame.hpp"
 #include "pointfair/flow/euler_step.hpp"
 #include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/neighbors/knn_grid.hpp"
@@ -104,6 +106,42 @@ void BM_Weingarten(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
 
+// The robust plane (RobustFrameParams{}: the flow's gate and the finish's normals and fits) of
+// every point over its k nearest: 16 as the finish's normals, 200 as its fits.
+void BM_RobustPlane(benchmark::State& state) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  const std::size_t k = static_cast<std::size_t>(state.range(1));
+  const Neighborhoods nb = build_neighborhoods(points, {.k = static_cast<int>(k)});
+  const RobustFrameParams params;
+  for (auto _ : state) {
+    parallel_for(points.size(), [&](std::size_t b, std::size_t e) {
+      std::vector<Vec3> offsets(k);
+      std::vector<double> weights(k + 1), scratch(k + 1);
+      for (std::size_t i = b; i < e; ++i) {
+        const auto row = nb.of(i);
+        offsets.resize(row.size());
+        for (std::size_t j = 0; j < row.size(); ++j) offsets[j] = points[row[j]] - points[i];
+        weights.resize(row.size() + 1);
+        scratch.resize(row.size() + 1);
+        benchmark::DoNotOptimize(fit_robust_plane(offsets, params, weights, scratch));
+      }
+    });
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+
+// The whole quadric finish at its defaults (both passes, fit sharing, no anchors) on the
+// noisy cube.
+void BM_QuadricFinish(benchmark::State& state) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  for (auto _ : state) {
+    std::vector<Vec3> finished = points;
+    finish_with_quadrics(finished, QuadricProjectionParams{});
+    benchmark::DoNotOptimize(finished.data());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+
 // One step of `params` at k over the noisy cube.
 void step_benchmark(benchmark::State& state, const FlowParams& params, int k) {
   const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
@@ -130,13 +168,17 @@ void BM_AnisotropicStep(benchmark::State& state) { paper_step_benchmark(state, F
 // its gate) at k 48, the automatic k under noise of a spacing or more, with the robust plane
 // gated (the defaults) or fitted at every point (gate 0): the ratio of the two is what the
 // gate saves per step.
-void default_step_benchmark(benchmark::State& state, double gate) {
+void default_step_benchmark(benchmark::State& state, double gate, int k = 48) {
   FlowParams params = SmoothParams{}.flow;
   params.robust.gate = gate;
-  step_benchmark(state, params, 48);
+  step_benchmark(state, params, k);
 }
 void BM_DefaultStepGated(benchmark::State& state) { default_step_benchmark(state, SmoothParams{}.flow.robust.gate); }
 void BM_DefaultStepRobustEverywhere(benchmark::State& state) { default_step_benchmark(state, 0.0); }
+// A chosen k of 96: twice the automatic k's work a point, within the fast kernel's bound.
+void BM_DefaultStepGatedK96(benchmark::State& state) {
+  default_step_benchmark(state, SmoothParams{}.flow.robust.gate, 96);
+}
 
 }  // namespace
 
@@ -151,5 +193,9 @@ BENCHMARK(BM_IsotropicStep)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(
 BENCHMARK(BM_AnisotropicStep)->RangeMultiplier(4)->Range(10'000, 4'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_DefaultStepGated)->RangeMultiplier(4)->Range(10'000, 1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_DefaultStepRobustEverywhere)->RangeMultiplier(4)->Range(10'000, 1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+BENCHMARK(BM_DefaultStepGatedK96)->RangeMultiplier(4)->Range(10'000, 1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RobustPlane)->ArgsProduct({{100'000}, {16, 200}})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_QuadricFinish)->RangeMultiplier(10)->Range(10'000, 1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 BENCHMARK_MAIN();

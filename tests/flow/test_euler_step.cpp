@@ -288,6 +288,41 @@ TEST(EulerStep, PlaneOriginAndRobustPlaneMatchReferenceStep) {
   }
 }
 
+TEST(EulerStep, WideNeighbourhoodsMatchReferenceStep) {
+  // Lists longer than the automatic k's 48: up to the fast kernel's bound (128 neighbours)
+  // they take the fast kernel, beyond it evaluate_point; both against the plain reference,
+  // with the PCA plane and with the defaults' (the robust plane behind its gate, the cut-off
+  // from the plane), as PlaneOriginAndRobustPlaneMatchReferenceStep.
+  constexpr double kRefTol = 1e-10;
+  const std::vector<Vec3> points = test::noisy_cube(3000, 0.01, 5);
+  const double diag = bounding_box_diagonal(points);
+  for (const int k : {96, 140}) {
+    const Neighborhoods n = build_neighborhoods(points, knn(k));
+    const auto rows = test::rows_of(n);
+    const double lambda = auto_lambda(points, n, 1.0);
+    for (const bool robust : {false, true}) {
+      FlowParams params;
+      params.normal_estimator = robust ? NormalEstimator::Robust : NormalEstimator::Pca;
+      params.cutoff_origin = robust ? CutoffOrigin::Plane : CutoffOrigin::Point;
+      params.robust.gate = robust ? SmoothParams{}.flow.robust.gate : 0.0;
+      test::ref::StepOptions o;
+      o.cut = test::ref::Cut::Sharp;
+      o.lambda = lambda;
+      o.tau = params.tau;
+      o.robust = robust;
+      o.robust_gate = params.robust.gate;
+      o.plane_origin = params.cutoff_origin == CutoffOrigin::Plane;
+      const std::string name = "k " + std::to_string(k) + (robust ? " robust gated" : " pca");
+      const std::vector<Vec3> fast = step(points, n, params, lambda);
+      const std::vector<Vec3> ref = test::ref::euler_step(points, rows, o);
+      EXPECT_GT(test::max_distance(fast, points), 1e-3 * diag) << name;
+      std::size_t differ = 0;
+      for (std::size_t i = 0; i < points.size(); ++i) differ += (fast[i] - ref[i]).norm() > kRefTol * diag;
+      EXPECT_LE(differ, points.size() / 500) << name;
+    }
+  }
+}
+
 TEST(EulerStep, RobustGateKeepsThePcaPlaneUnderNoiseAndNotAtEdges) {
   // The gate (RobustFrameParams::gate 2) on a noisy cube, 24,000 points, k 16, the input's
   // automatic lambda. The faces keep their PCA planes at every noise level: the ratio the gate
