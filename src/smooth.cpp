@@ -15,6 +15,7 @@
 #include "pointfair/flow/shrink_compensation.hpp"
 #include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/neighbors/neighborhood_size.hpp"
+#include "pointfair/neighbors/coarse_sample.hpp"
 #include "pointfair/neighbors/spatial_order.hpp"
 
 namespace pointfair {
@@ -130,6 +131,8 @@ void CoarseLevelParams::validate() const {
   require(interpolation_k >= 1 && interpolation_k <= 64,
           "coarse interpolation k must be in 1..64, got " + std::to_string(interpolation_k));
   require(levels >= 1 && levels <= 8, "coarse levels must be in 1..8, got " + std::to_string(levels));
+  require(cell_spacings > 0.0 && std::isfinite(cell_spacings),
+          "coarse cell spacings must be positive, got " + std::to_string(cell_spacings));
   require(min_noise_ratio >= 0.0 && std::isfinite(min_noise_ratio),
           "coarse minimum noise ratio must be >= 0, got " + std::to_string(min_noise_ratio));
 }
@@ -267,12 +270,14 @@ bool run_coarse_level(std::vector<Vec3>& positions, const SmoothParams& params,
   // own curvature reads as noise at that scale): only the input's is tested, and the depth is
   // CoarseLevelParams::levels.
   if (static_cast<int>(levels.size()) >= c.levels) return false;
-  if (levels.empty() && !(estimate_noise(positions).ratio >= c.min_noise_ratio)) return false;
-  // Every ratio-th point in Morton order: a sample as even as the cloud.
-  const std::vector<Index> order = spatial_order(positions);
-  std::vector<Vec3> coarse_input;
-  coarse_input.reserve(order.size() / static_cast<std::size_t>(c.ratio) + 1);
-  for (std::size_t i = 0; i < order.size(); i += static_cast<std::size_t>(c.ratio)) coarse_input.push_back(positions[order[i]]);
+  const NoiseEstimate noise = estimate_noise(positions);
+  if (levels.empty() && !(noise.ratio >= c.min_noise_ratio)) return false;
+  // Every ratio-th point in Morton order within cells of cell_spacings sample spacings: a
+  // sample as even as the cloud, in the input's order.
+  const CoarseCells cells = coarse_cells(morton_grid(positions), c.cell_spacings * noise.spacing);
+  const std::vector<Index> sample = coarse_sample(positions, cells, c.ratio);
+  std::vector<Vec3> coarse_input(sample.size());
+  for (std::size_t j = 0; j < sample.size(); ++j) coarse_input[j] = positions[sample[j]];
   // Too few for a surface of their own (the automatic k needs a few dozen): no coarse level.
   if (coarse_input.size() < 64) return false;
   SmoothParams coarse_params = params;

@@ -9,6 +9,8 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
+#include "pointfair/neighbors/coarse_sample.hpp"
+#include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/smooth.hpp"
 #include "support/checks.hpp"
 #include "support/clouds.hpp"
@@ -31,7 +33,12 @@ TEST(CoarseLevel, RemovesHeavyNoiseInAFewFineSteps) {
   params.coarse = CoarseLevelParams{};
   const SmoothReport coarse_report = smooth(coarse, params);
   ASSERT_EQ(coarse_report.coarse_levels.size(), 1u);
-  EXPECT_EQ(coarse_report.coarse_levels[0].points, input.size() / 2);
+  // Every second point of each cell: half the cloud, and half a point more a cell of odd count.
+  const CoarseCells cells =
+      coarse_cells(morton_grid(input), CoarseLevelParams{}.cell_spacings * estimate_noise(input).spacing);
+  EXPECT_EQ(coarse_report.coarse_levels[0].points, coarse_sample(input, cells, 2).size());
+  EXPECT_GE(coarse_report.coarse_levels[0].points, input.size() / 2);
+  EXPECT_LT(coarse_report.coarse_levels[0].points, input.size() * 11 / 20);
   EXPECT_GT(coarse_report.coarse_levels[0].steps, 0);
   EXPECT_EQ(coarse_report.steps, CoarseLevelParams{}.fine_steps);
   EXPECT_GT(plain_report.steps, coarse_report.steps);
@@ -79,7 +86,8 @@ TEST(CoarseLevel, ATinyCloudSkipsItAndBadParametersAreRefused) {
   std::vector<Vec3> cloud = heavy_noise_sphere(1000);
   for (const CoarseLevelParams bad : {CoarseLevelParams{.ratio = 1}, CoarseLevelParams{.fine_steps = -1},
                                       CoarseLevelParams{.interpolation_k = 0}, CoarseLevelParams{.interpolation_k = 65},
-                                      CoarseLevelParams{.levels = 0}, CoarseLevelParams{.min_noise_ratio = -1}}) {
+                                      CoarseLevelParams{.levels = 0}, CoarseLevelParams{.min_noise_ratio = -1},
+                                      CoarseLevelParams{.cell_spacings = 0}}) {
     params.coarse = bad;
     EXPECT_THROW(smooth(cloud, params), ParamError);
   }

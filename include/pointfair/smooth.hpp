@@ -42,9 +42,14 @@ enum class Placement {
 /// finish and the placement follow as without it, the
 /// placement measured from the input positions.
 struct CoarseLevelParams {
-  /// Every ratio-th point (>= 2) in Morton order is a coarse point. 2 measured better than
-  /// 4, whose coarse neighbourhoods reach too far on curved surfaces (docs/coarse-level.md).
+  /// Every ratio-th point (>= 2) in Morton order within each cell (coarse_sample.hpp) is a
+  /// coarse point. 2 measured better than 4, whose coarse neighbourhoods reach too far on
+  /// curved surfaces (docs/coarse-level.md).
   int ratio = 2;
+  /// The cells' edge in sample spacings (> 0; rounded down to a power of two of the Morton
+  /// grid's quanta). 8 and 16 scored as well as the whole cloud's Morton order, 2 and 4 lost
+  /// up to 8% of RMS (docs/coarse-level.md); a tile ranks the cells around it alone.
+  double cell_spacings = 8.0;
   /// Steps on every point after the coarse flow (>= 0; the automatic stop does not apply).
   int fine_steps = 10;
   /// Coarse points each point's displacement is interpolated from (1..64).

@@ -23,27 +23,36 @@ std::uint64_t spread_bits(std::uint64_t v) {
 
 }  // namespace
 
-std::vector<Index> spatial_order(std::span<const Vec3> points) {
-  const std::size_t n = points.size();
-  std::vector<Index> order(n);
-  if (n == 0) return order;
+MortonGrid morton_grid(const Vec3& low, const Vec3& high) {
+  const double extent = (high - low).maxCoeff();
+  return {low, extent > 0 ? (static_cast<double>((1u << 21) - 1)) / extent : 0.0};
+}
+
+MortonGrid morton_grid(std::span<const Vec3> points) {
+  if (points.empty()) return {};
   Vec3 low = points[0], high = points[0];
   for (const auto& p : points) {
     low = low.cwiseMin(p);
     high = high.cwiseMax(p);
   }
-  const double extent = (high - low).maxCoeff();
-  const double scale = extent > 0 ? (static_cast<double>((1u << 21) - 1)) / extent : 0.0;
+  return morton_grid(low, high);
+}
+
+std::uint64_t morton_code(const MortonGrid& grid, const Vec3& p) {
+  const Vec3 q = (p - grid.low) * grid.scale;
+  // NaN (a non-finite coordinate or extent) goes to cell 0: the order stays defined.
+  auto axis = [](double v) { return static_cast<std::uint64_t>(v > 0.0 ? std::min(v, 2097151.0) : 0.0); };
+  return spread_bits(axis(q.x())) | spread_bits(axis(q.y())) << 1 | spread_bits(axis(q.z())) << 2;
+}
+
+std::vector<Index> spatial_order(std::span<const Vec3> points) {
+  const std::size_t n = points.size();
+  std::vector<Index> order(n);
+  if (n == 0) return order;
+  const MortonGrid grid = morton_grid(points);
   std::vector<std::pair<std::uint64_t, Index>> keyed(n);
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t i = begin; i < end; ++i) {
-      const Vec3 q = (points[i] - low) * scale;
-      // NaN (a non-finite coordinate or extent) goes to cell 0: the order stays defined.
-      auto axis = [](double v) { return static_cast<std::uint64_t>(v > 0.0 ? std::min(v, 2097151.0) : 0.0); };
-      const std::uint64_t code =
-          spread_bits(axis(q.x())) | spread_bits(axis(q.y())) << 1 | spread_bits(axis(q.z())) << 2;
-      keyed[i] = {code, static_cast<Index>(i)};
-    }
+    for (std::size_t i = begin; i < end; ++i) keyed[i] = {morton_code(grid, points[i]), static_cast<Index>(i)};
   }, 8192);
   std::sort(keyed.begin(), keyed.end());
   for (std::size_t s = 0; s < n; ++s) order[s] = keyed[s].second;

@@ -66,6 +66,7 @@ std::map<std::string, std::string> library_defaults() {
       {"quadric-min-k", text(q.min_k)},
       {"coarse-level", p.coarse ? "on" : "off"},
       {"coarse-ratio", text(CoarseLevelParams{}.ratio)},
+      {"coarse-cell", text(CoarseLevelParams{}.cell_spacings)},
       {"coarse-levels", text(CoarseLevelParams{}.levels)},
       {"coarse-fine-steps", text(CoarseLevelParams{}.fine_steps)},
   };

@@ -241,7 +241,7 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
   p.group(OptionGroup::Method);
   p.flag("coarse-level",
          "Before the flow on every point, run it on every --coarse-ratio-th point (in Morton "
-         "order), move each point by the coarse displacement near it, then take "
+         "order within cells of --coarse-cell spacings), move each point by the coarse displacement near it, then take "
          "--coarse-fine-steps steps on every point; only where the input's noise is at least 1.5 "
          "sample spacings (beyond the paper; in core only): under heavy noise closer to the "
          "surface in fewer steps (docs/coarse-level.md). Default off.",
@@ -250,6 +250,11 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
   p.value("coarse-ratio", "R",
           "Points per coarse point (>= 2). Implies --coarse-level. Default " + std::to_string(c.ratio) + ".",
           [coarse](std::string_view v) { coarse().ratio = parse_int(v, "--coarse-ratio"); });
+  p.value("coarse-cell", "S",
+          "Edge of the cells the coarse sample is drawn in, in sample spacings (> 0; rounded down "
+          "to a power of two of the Morton grid): every --coarse-ratio-th point in Morton order "
+          "within each cell. Implies --coarse-level. Default " + format_number(c.cell_spacings) + ".",
+          [coarse](std::string_view v) { coarse().cell_spacings = parse_double(v, "--coarse-cell"); });
   p.value("coarse-levels", "L",
           "Coarse levels under the input (1..8; each coarse sample gets one of its own). Implies "
           "--coarse-level. Default " + std::to_string(c.levels) + ".",

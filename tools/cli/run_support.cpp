@@ -203,7 +203,7 @@ JsonObject finish_json(const SmoothParams& p) {
 
 JsonObject coarse_level_json(const CoarseLevelParams& coarse, const std::vector<CoarseLevelReport>& levels) {
   JsonObject j;
-  j.add("ratio", coarse.ratio).add("fine_steps", coarse.fine_steps).add("interpolation_k", coarse.interpolation_k)
+  j.add("ratio", coarse.ratio).add("cell_spacings", coarse.cell_spacings).add("fine_steps", coarse.fine_steps).add("interpolation_k", coarse.interpolation_k)
       .add("levels_at_most", coarse.levels).add("min_noise_ratio", coarse.min_noise_ratio);
   std::vector<JsonObject> ran;
   for (const CoarseLevelReport& level : levels) {

@@ -4,6 +4,7 @@
 // this order so that a point's neighbours sit near it in memory; since every point's result
 // depends only on the positions of its neighbours in list order, relabelling changes no bit
 // of the result.
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -11,6 +12,21 @@
 #include "pointfair/types.hpp"
 
 namespace pointfair {
+
+/// The quantisation of a cloud's Morton codes: 2^21 - 1 quanta over the largest extent of
+/// its bounding box, from its low corner.
+struct MortonGrid {
+  Vec3 low = Vec3::Zero();
+  double scale = 0.0;  ///< quanta per unit length; 0 for a cloud of one position
+};
+
+/// The Morton grid of a cloud's bounding box (low and high corners).
+MortonGrid morton_grid(const Vec3& low, const Vec3& high);
+MortonGrid morton_grid(std::span<const Vec3> points);
+
+/// The Morton code of p on `grid`: its quantised coordinates' bits interleaved (x lowest),
+/// clamped to the grid; a non-finite coordinate goes to 0.
+std::uint64_t morton_code(const MortonGrid& grid, const Vec3& p);
 
 /// order[s] = the index of the point stored at position s: points sorted by the Morton code
 /// of their position quantised to 21 bits per axis over the bounding box, ties by index.
