@@ -5,77 +5,66 @@ namespace pointfair::tiles::detail {
 
 // ---- the quadric finish -------------------------------------------------------------------------
 
+namespace {
+
+// Whether the ball of radius `reach` around p lies inside box `own` grown by `halo`: the
+// points gathered around a part.
+bool gathered_around(const Box& own, double halo, const Vec3& p, double reach) {
+  for (Eigen::Index c = 0; c < 3; ++c) {
+    const std::size_t lo = static_cast<std::size_t>(c), hi = lo + 3;
+    if (!(p[c] - reach > own[lo] - halo && p[c] + reach < own[hi] + halo)) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const LocalSet& local,
                                              const QuadricProjectionParams& q) const {
   // finish_with_quadrics's lists on a tile's (or a part's, in box `own`) gathered points (sorted by original index: the
   // canonical tie rule). Empty (the halo must grow) unless every row is certain to be the
-  // in-core one: its farthest entry lies inside what was gathered.
+  // in-core one: its farthest entry lies inside what was gathered. With fit sharing a tile
+  // point's row holds only its share_candidates nearest (the crease test's and the seeds'),
+  // as in core: the points left to fit their own get k-long rows after the projection
+  // (own_fit_rows).
   constexpr double inf = std::numeric_limits<double>::infinity();
   const std::size_t n = local.positions.size(), kk = static_cast<std::size_t>(q.k);
+  const bool sharing = q.share_stride > 1;
+  const std::size_t row_k = sharing ? share_candidates(q) : kk;
   const bool all = covers_all(own, halo);
   FinishLists lists;
-  lists.fits = build_neighborhoods(local.positions, local.queries, q.k, inf);
+  lists.fits = build_neighborhoods(local.positions, local.queries, static_cast<int>(row_k), inf);
   std::vector<char> in_tile(n, 0), named(n, 0);
   for (const Index i : local.queries) in_tile[i] = 1;
-  // Whether the ball of radius `reach` around p lies inside the box around the part that was
-  // gathered.
-  const auto gathered_around = [&](const Vec3& p, double reach) {
-    for (Eigen::Index c = 0; c < 3; ++c) {
-      const std::size_t lo = static_cast<std::size_t>(c), hi = lo + 3;
-      if (!(p[c] - reach > own[lo] - halo && p[c] + reach < own[hi] + halo)) return false;
-    }
-    return true;
-  };
-  // Whether `row` (point i's) is the in-core one; its points named. A point of the part lies
-  // in its box, so that its row's farthest entry within the halo suffices; a halo point's
-  // (a seed's) whole ball must lie inside what was gathered.
-  const auto check_row = [&](std::span<const Index> row, Index i) {
+  // Whether `row` (point i's, `want` long in core) is the in-core one; its points named. A
+  // point of the part lies in its box, so that its row's farthest entry within the halo
+  // suffices; a halo point's (a seed's) whole ball must lie inside what was gathered.
+  const auto check_row = [&](std::span<const Index> row, Index i, std::size_t want) {
     if (!all) {
-      if (row.size() < kk) return false;
+      if (row.size() < want) return false;
       const double farthest = (local.positions[row.back()] - local.positions[i]).norm();
       if (in_tile[i] ? !(farthest < halo * (1.0 - kHaloMargin))
-                     : !gathered_around(local.positions[i], farthest + halo * kHaloMargin))
+                     : !gathered_around(own, halo, local.positions[i], farthest + halo * kHaloMargin))
         return false;
     }
     for (const Index j : row) named[j] = !in_tile[j];
     return true;
   };
   for (std::size_t r = 0; r < lists.fits.size(); ++r)
-    if (!check_row(lists.fits.of(r), local.queries[r])) return std::nullopt;
-  if (q.share_stride > 1) {
-    // The seeds a tile point may share the fit of (among its first share_candidates), in
-    // ascending local order, each with its own fit's row: a tile seed's is its row above, a
-    // halo seed's is built here.
+    if (!check_row(lists.fits.of(r), local.queries[r], row_k)) return std::nullopt;
+  if (sharing) {
+    // The seeds a tile point may share the fit of (its row: its first share_candidates), in
+    // ascending local order, each with its own fit's k-long row.
     std::vector<char> seed(n, 0);
-    std::vector<Index> tile_row(n, 0);
-    const std::size_t candidates = share_candidates(q);
     for (std::size_t r = 0; r < lists.fits.size(); ++r) {
-      const std::span<const Index> row = lists.fits.of(r);
-      for (const Index j : row.first(std::min(candidates, row.size()))) seed[j] = 1;
+      for (const Index j : lists.fits.of(r)) seed[j] = 1;
       seed[local.queries[r]] = 1;
-      tile_row[local.queries[r]] = static_cast<Index>(r);
     }
-    std::vector<Index> halo_seeds;
     for (std::size_t i = 0; i < n; ++i)
-      if (seed[i] && is_share_seed(local.original[i], q)) {
-        lists.seed_queries.push_back(static_cast<Index>(i));
-        if (!in_tile[i]) halo_seeds.push_back(static_cast<Index>(i));
-      }
-    const Neighborhoods halo_rows = build_neighborhoods(local.positions, halo_seeds, q.k, inf);
-    for (std::size_t r = 0; r < halo_rows.size(); ++r)
-      if (!check_row(halo_rows.of(r), halo_seeds[r])) return std::nullopt;
-    Neighborhoods& rows = lists.seed_fits;
-    rows.stride = std::max(lists.fits.stride, halo_rows.stride);
-    rows.eps = inf;
-    rows.counts.assign(lists.seed_queries.size(), 0);
-    rows.indices.assign(lists.seed_queries.size() * static_cast<std::size_t>(rows.stride), 0);
-    std::size_t next_halo = 0;
-    for (std::size_t r = 0; r < lists.seed_queries.size(); ++r) {
-      const Index i = lists.seed_queries[r];
-      const std::span<const Index> row = in_tile[i] ? lists.fits.of(tile_row[i]) : halo_rows.of(next_halo++);
-      std::copy(row.begin(), row.end(), rows.indices.begin() + static_cast<std::ptrdiff_t>(r * static_cast<std::size_t>(rows.stride)));
-      rows.counts[r] = static_cast<std::uint16_t>(row.size());
-    }
+      if (seed[i] && is_share_seed(local.original[i], q)) lists.seed_queries.push_back(static_cast<Index>(i));
+    lists.seed_fits = build_neighborhoods(local.positions, lists.seed_queries, q.k, inf);
+    for (std::size_t r = 0; r < lists.seed_fits.size(); ++r)
+      if (!check_row(lists.seed_fits.of(r), lists.seed_queries[r], kk)) return std::nullopt;
   }
   std::vector<Index> halo_queries;
   for (std::size_t i = 0; i < n; ++i)
@@ -90,7 +79,7 @@ std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const 
       const std::span<const Index> row = near.of(r);
       if (row.size() < static_cast<std::size_t>(m)) return std::nullopt;
       const Vec3& p = local.positions[halo_queries[r]];
-      if (!gathered_around(p, (local.positions[row.back()] - p).norm() + halo * kHaloMargin)) return std::nullopt;
+      if (!gathered_around(own, halo, p, (local.positions[row.back()] - p).norm() + halo * kHaloMargin)) return std::nullopt;
     }
   }
   // The normals' rows: the tile's points and the halo points the fits name; the others empty.
@@ -113,14 +102,66 @@ std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const 
   return lists;
 }
 
+std::optional<OwnFitRows> Run::own_fit_rows(const Box& own, double halo, const LocalSet& local,
+                                            std::span<const Index> queries, std::span<const char> has_normal,
+                                            const QuadricProjectionParams& q) const {
+  // As finish_lists's rows: canonical on the gathered points in their original order, and
+  // certain to be the in-core ones or none.
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  const bool all = covers_all(own, halo);
+  const std::size_t kk = static_cast<std::size_t>(q.k);
+  OwnFitRows rows;
+  rows.fits = build_neighborhoods(local.positions, queries, q.k, inf);
+  std::vector<char> named(local.positions.size(), 0);
+  for (std::size_t r = 0; r < rows.fits.size(); ++r) {
+    const std::span<const Index> row = rows.fits.of(r);
+    if (!all) {
+      // The queries are the part's points: inside its box.
+      if (row.size() < kk) return std::nullopt;
+      const double farthest = (local.positions[row.back()] - local.positions[queries[r]]).norm();
+      if (!(farthest < halo * (1.0 - kHaloMargin))) return std::nullopt;
+    }
+    for (const Index j : row)
+      if (!has_normal[j] && !named[j]) {
+        named[j] = 1;
+        rows.named.push_back(j);
+      }
+  }
+  std::sort(rows.named.begin(), rows.named.end());
+  const int m = std::min(q.k, q.normal_neighbors);
+  rows.normals = build_neighborhoods(local.positions, rows.named, m, inf);
+  if (!all)
+    for (std::size_t r = 0; r < rows.normals.size(); ++r) {
+      const std::span<const Index> row = rows.normals.of(r);
+      if (row.size() < static_cast<std::size_t>(m)) return std::nullopt;
+      const Vec3& p = local.positions[rows.named[r]];
+      if (!gathered_around(own, halo, p, (local.positions[row.back()] - p).norm() + halo * kHaloMargin))
+        return std::nullopt;
+    }
+  return rows;
+}
+
 namespace {
+
+// The normal finish_with_quadrics gives point i of `points` over its nearest `row`: the robust
+// plane's over the first normal_neighbors (neighbourhood_normals's, to the bit), 0 where none.
+Vec3 normal_of_row(std::span<const Vec3> points, Index i, std::span<const Index> row,
+                   const QuadricProjectionParams& q) {
+  const std::size_t m = std::min<std::size_t>(row.size(), static_cast<std::size_t>(q.normal_neighbors));
+  std::vector<Vec3> offsets(m);
+  for (std::size_t j = 0; j < m; ++j) offsets[j] = points[row[j]] - points[i];
+  std::vector<double> weights(m + 1, 0.0), scratch(m + 1);
+  const RobustPlane plane = fit_robust_plane(offsets, q.frame, weights, scratch);
+  return plane.valid ? plane.normal : Vec3::Zero();
+}
 
 // What finish_part holds for `gathered` points of which `queries` are the part's (fits of k,
 // normals of m neighbours) and `seeds` have a shared fit: the gathered set (40 bytes a point;
 // its entries, 48, while gathering), the cell grid (50), the normals' rows and those that
 // built the halo's (8m + 10), the normals (24), the shared fits' index (4); each query's row
-// in the set (4), its fit (4k + 2), its result and anchor (48); each seed's row (4k + 6) and
-// fit.
+// in the set (4), its fit (4k + 2: with sharing its list is shorter, and the k-long lists of
+// the queries left to fit their own come after the others are freed), its result and anchor
+// (48); each seed's row (4k + 6) and fit.
 std::uint64_t finish_part_bytes(std::uint64_t gathered, std::uint64_t queries, std::uint64_t seeds, int k, int m) {
   const auto mm = static_cast<std::uint64_t>(m), kk = static_cast<std::uint64_t>(k);
   return gathered * (40 + 50 + 8 * mm + 10 + 24 + 4) + queries * (4 + 4 * kk + 2 + 48) +
@@ -250,7 +291,7 @@ bool Run::finish_part(std::size_t t, const TilePart& part, const QuadricProjecti
     relabel_neighborhoods_in_place(lists->seed_fits, row_of);
     for (Index& i : local->queries) i = row_of[i];
     for (Index& i : lists->seed_queries) i = row_of[i];
-    const std::vector<Vec3> normals = neighbourhood_normals(local->positions, lists->normals, q);
+    std::vector<Vec3> normals = neighbourhood_normals(local->positions, lists->normals, q);
     // The seeds' fits, shared with their neighbours (as finish_with_quadrics's).
     SharedFits shared;
     if (q.share_stride > 1) {
@@ -260,17 +301,48 @@ bool Run::finish_part(std::size_t t, const TilePart& part, const QuadricProjecti
       for (std::size_t r = 0; r < lists->seed_queries.size(); ++r) shared.fit_of[lists->seed_queries[r]] = static_cast<Index>(r);
     }
     const SharedFits* sharing = q.share_stride > 1 ? &shared : nullptr;
-    if (whole) {
-      project_rows_to_quadrics(local->positions, normals, lists->fits, local->queries, q, result, anchors, sharing);
-    } else {
+    if (!whole) {
       part_result.resize(queries);
       part_anchors.clear();
       if (!anchors.empty())
         for (const std::uint64_t r : part.rows) part_anchors.push_back(anchors[r]);
-      project_rows_to_quadrics(local->positions, normals, lists->fits, local->queries, q, part_result, part_anchors,
-                               sharing);
-      for (std::size_t i = 0; i < part.rows.size(); ++i) result[part.rows[i]] = part_result[i];
     }
+    const std::span<Vec3> out = whole ? std::span<Vec3>(result) : std::span<Vec3>(part_result);
+    const std::span<const Vec3> out_anchors = whole ? anchors : std::span<const Vec3>(part_anchors);
+    // With sharing the points that fit their own are left for k-long rows (own_fit_rows).
+    std::vector<char> left(sharing ? queries : 0, 0);
+    project_rows_to_quadrics(local->positions, normals, lists->fits, local->queries, q, out, out_anchors, sharing,
+                             left);
+    if (std::ranges::find(left, char{1}) != left.end()) {
+      // Their rows on the gathered points in their original order (the canonical tie rule),
+      // where the sharing lists were: the fits read nothing but positions, normals and rows.
+      std::vector<char> has_normal(local->positions.size(), 0);
+      for (std::size_t s = 0; s < order.size(); ++s) has_normal[order[s]] = lists->normals.counts[s] > 0;
+      std::vector<Index> own_queries;
+      std::vector<std::size_t> own_rows;
+      for (std::size_t r = 0; r < left.size(); ++r)
+        if (left[r]) {
+          own_rows.push_back(r);
+          own_queries.push_back(order[local->queries[r]]);
+        }
+      *lists = FinishLists{};
+      permute_in_place(local->positions, row_of);
+      permute_in_place(normals, row_of);
+      const std::optional<OwnFitRows> own = own_fit_rows(part.box, halo, *local, own_queries, has_normal, q);
+      if (!own) {
+        account(needed);
+        continue;
+      }
+      for (std::size_t r = 0; r < own->named.size(); ++r)
+        normals[own->named[r]] = normal_of_row(local->positions, own->named[r], own->normals.of(r), q);
+      std::vector<Vec3> own_out(own_queries.size()), own_anchors;
+      if (!out_anchors.empty())
+        for (const std::size_t r : own_rows) own_anchors.push_back(out_anchors[r]);
+      project_rows_to_quadrics(local->positions, normals, own->fits, own_queries, q, own_out, own_anchors);
+      for (std::size_t r = 0; r < own_rows.size(); ++r) out[own_rows[r]] = own_out[r];
+    }
+    if (!whole)
+      for (std::size_t i = 0; i < part.rows.size(); ++i) result[part.rows[i]] = part_result[i];
     largest_local_ = std::max<std::uint64_t>(largest_local_, local->positions.size());
     account(needed);
     return true;

@@ -336,6 +336,13 @@ class Run {
   bool run_finish(OutOfCoreReport& report);
   std::optional<FinishLists> finish_lists(const Box& own, double halo, const LocalSet& local,
                                           const QuadricProjectionParams& q) const;
+  // The k-long rows of the part's points `queries` (local indices; the gathered set in its
+  // original order) that fit their own after the sharing projection, and the rows of the
+  // gathered points they name that have no normal yet (has_normal); nullopt unless every
+  // row is the in-core one (the halo must grow).
+  std::optional<OwnFitRows> own_fit_rows(const Box& own, double halo, const LocalSet& local,
+                                         std::span<const Index> queries, std::span<const char> has_normal,
+                                         const QuadricProjectionParams& q) const;
   void finish_tile(std::size_t t, const QuadricProjectionParams& q, std::span<const Vec3> anchors,
                    std::vector<Vec3>& result);
   // One pass of the finish for `part` of tile t into `result` (the tile's rows); false when

@@ -32,10 +32,11 @@ struct TilePart {
 };
 
 // The quadric finish's lists of one tile's gathered points (LocalSet, local indices): each
-// tile point's fit (its k nearest; row r: the tile's row r), with fit sharing each seed's fit
-// that a tile point may share (the tile's seeds and the halo's among the tile points' nearest;
-// row r: point seed_queries[r]), and the rows every normal those fits read is fitted to (a
-// row for every gathered point, empty for those no fit reads).
+// tile point's fit (its k nearest, with fit sharing its share_candidates nearest; row r: the
+// tile's row r), with fit sharing each seed's fit that a tile point may share (the tile's
+// seeds and the halo's among the tile points' nearest; row r: point seed_queries[r]), and the
+// rows every normal those rows read is fitted to (a row for every gathered point, empty for
+// those no row reads).
 struct FinishLists {
   Neighborhoods fits;
   Neighborhoods seed_fits;
@@ -47,6 +48,15 @@ struct FinishLists {
            detail::bytes(seed_fits.counts) + detail::bytes(seed_queries) + detail::bytes(normals.indices) +
            detail::bytes(normals.counts) + near_bytes;
   }
+};
+
+// The rows of a part's points that fit their own (Run::own_fit_rows): row r of `fits` the
+// k nearest of the r-th query, and row r of `normals` the nearest of gathered point named[r],
+// which no earlier row had named.
+struct OwnFitRows {
+  Neighborhoods fits;
+  std::vector<Index> named;
+  Neighborhoods normals;
 };
 
 // The neighbour lists of one tile in local indices: local index s < tile size is row
