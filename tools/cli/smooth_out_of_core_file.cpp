@@ -14,10 +14,12 @@
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
+#include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/point_folder.hpp"
 #include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
+#include "pointfair/tiles/container_reader.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/import.hpp"
 
@@ -198,7 +200,12 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
   if (!run.keep_interrupted && !fs::exists(tiles::partial_name(run_output), ec))
     guard.partial = tiles::partial_name(run_output);
 
-  ooc.attributes = true;
+  // The attributes (a pass over every tile at the end) only where the output takes them, as
+  // in core: the input's normal columns (refreshed), --attributes, colours. A container
+  // output keeps them for later exports; a folder's files may each have normals.
+  ooc.attributes = container_out || folder || output.attributes || output.colour_by != ColourBy::None ||
+                   (!result.nothing_selected &&
+                    !io::normal_columns(tiles::ContainerChunkReader(run_input, {.original_order = false}).schema()).empty());
   // What keeps the committed steps when `progress` stops the run (as after a kill), for a
   // resume to continue.
   const std::string kept_in = !run.keep_interrupted ? std::string()
