@@ -622,6 +622,11 @@ TEST_F(CliInfoTest, DescribesALasFileWithItsCrsAndTheKTheDefaultsChoose) {
   EXPECT_NE(text.out.find("3,000 points"), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("EPSG:2056 \"CH1903+ / LV95\""), std::string::npos) << text.out;
   EXPECT_NE(text.out.find("classification"), std::string::npos) << text.out;
+  // The finish's passes as the defaults run them: the first one not reweighted.
+  EXPECT_NE(text.out.find("then the finish: 2 passes of fits over 200 neighbours (the last degree 3, reweighted "
+                          "once; before it degree 3, not reweighted)"),
+            std::string::npos)
+      << text.out;
   const RunResult json = run("info " + in.string() + " --json");
   ASSERT_EQ(json.exit_code, 0) << json.err;
   EXPECT_EQ(json_number_after(json.out, "points"), 3000.0) << json.out;

@@ -151,7 +151,13 @@ JsonObject file_json(const fs::path& file, const FileSummary& s, const DefaultsE
     j.add("defaults", JsonObject()
                           .add("k", d->k)
                           .add("eps", d->eps)
-                          .add("finish", JsonObject().add("k", finish.k).add("degree", finish.degree).add("passes", finish.passes)));
+                          .add("finish", JsonObject()
+                                               .add("k", finish.k)
+                                               .add("degree", finish.degree)
+                                               .add("iterations", finish.iterations)
+                                               .add("early_degree", finish.early_degree)
+                                               .add("early_iterations", finish.early_iterations)
+                                               .add("passes", finish.passes)));
   }
   return j;
 }
@@ -195,8 +201,19 @@ void print_file(const fs::path& file, const FileSummary& s, const DefaultsEstima
   std::printf("  spacing    %s (median distance to the nearest point)\n", format_number(d->noise.spacing).c_str());
   std::printf("  noise      %s x the spacing = %s (lower quartile over samples)\n",
               format_number(d->noise.ratio).c_str(), format_number(d->noise.ratio * d->noise.spacing).c_str());
-  std::printf("  defaults   k %d, eps %s; then the finish: degree-%d fits over %d neighbours, %d passes\n", d->k,
-              format_number(d->eps).c_str(), finish.degree, finish.k, finish.passes);
+  // The passes before the last fit their own degree and reweightings (params_of_pass).
+  const auto fits = [](const QuadricProjectionParams& q) {
+    const std::string reweighted = q.iterations == 0   ? "not reweighted"
+                                   : q.iterations == 1 ? "reweighted once"
+                                                       : "reweighted " + std::to_string(q.iterations) + " times";
+    return "degree " + std::to_string(q.degree) + ", " + reweighted;
+  };
+  const std::string last = fits(params_of_pass(finish, finish.passes - 1)), early = fits(params_of_pass(finish, 0));
+  const std::string passes = finish.passes == 1 || early == last
+                                 ? "(" + last + ")"
+                                 : "(the last " + last + "; before it " + early + ")";
+  std::printf("  defaults   k %d, eps %s; then the finish: %d passes of fits over %d neighbours %s\n", d->k,
+              format_number(d->eps).c_str(), finish.passes, finish.k, passes.c_str());
   // Where the flow needs many steps even with momentum (docs/coarse-level.md).
   if (d->noise.ratio >= CoarseLevelParams{}.min_noise_ratio)
     std::printf("  heavy      noise of %s spacings or more: 'pointfair smooth --coarse-level' takes "
