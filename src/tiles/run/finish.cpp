@@ -313,9 +313,10 @@ bool Run::finish_part(std::size_t t, const TilePart& part, const QuadricProjecti
     std::vector<char> left(sharing ? queries : 0, 0);
     project_rows_to_quadrics(local->positions, normals, lists->fits, local->queries, q, out, out_anchors, sharing,
                              left);
-    if (std::ranges::find(left, char{1}) != left.end()) {
-      // Their rows on the gathered points in their original order (the canonical tie rule),
-      // where the sharing lists were: the fits read nothing but positions, normals and rows.
+    if (std::ranges::any_of(left, [](char l) { return l != 0; })) {
+      // Their k-long rows are built on the gathered points in their original order (the
+      // canonical tie rule): the positions and normals go back to it (the fits read nothing
+      // else but the rows), and the sharing lists, no longer read, make room for the rows.
       std::vector<char> has_normal(local->positions.size(), 0);
       for (std::size_t s = 0; s < order.size(); ++s) has_normal[order[s]] = lists->normals.counts[s] > 0;
       std::vector<Index> own_queries;
