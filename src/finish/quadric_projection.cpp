@@ -421,12 +421,12 @@ Vec3 placed_on_quadric(const Vec3& anchor, const Vec3& p, std::span<const Index>
 
 namespace {
 
-// The normals of rows [0, out.size()) of `rows`: row r is point first + r of `points`. Four
-// rows at a time through the batched robust plane (robust_plane_fit.hpp), whose every plane is
-// the one-point fit_robust_plane's to the bit: their chains of square roots and divisions
-// overlap.
-void normals_of_rows(std::span<const Vec3> points, NeighborhoodsView rows, std::size_t first,
-                     const QuadricProjectionParams& params, std::span<Vec3> out) {
+// The normals of rows [0, out.size()) of `rows`: row r is point queries[r] of `points`, or
+// first + r without queries. Four rows at a time through the batched robust plane
+// (robust_plane_fit.hpp), whose every plane is the one-point fit_robust_plane's to the bit:
+// their chains of square roots and divisions overlap.
+void normals_of_rows(std::span<const Vec3> points, NeighborhoodsView rows, std::span<const Index> queries,
+                     std::size_t first, const QuadricProjectionParams& params, std::span<Vec3> out) {
   constexpr std::size_t kLanes = 4;
   parallel_for(out.size(), [&](std::size_t begin, std::size_t end) {
     std::array<std::vector<Vec3>, kLanes> offsets;
@@ -437,7 +437,7 @@ void normals_of_rows(std::span<const Vec3> points, NeighborhoodsView rows, std::
       std::span<double> lane_weights[kLanes], lane_scratch[kLanes];
       for (std::size_t l = 0; l < count; ++l) {
         const std::span<const Index> nb = rows.of(r0 + l);
-        const Vec3& p = points[first + r0 + l];
+        const Vec3& p = points[queries.empty() ? first + r0 + l : queries[r0 + l]];
         const std::size_t m = std::min<std::size_t>(nb.size(), static_cast<std::size_t>(params.normal_neighbors));
         offsets[l].resize(m);
         for (std::size_t j = 0; j < m; ++j) offsets[l][j] = points[nb[j]] - p;
@@ -462,7 +462,15 @@ std::vector<Vec3> neighbourhood_normals(std::span<const Vec3> points, const Neig
   const std::size_t n = neighborhoods.size();
   require(points.size() == n, "neighbourhood_normals: one neighbourhood row per point");
   std::vector<Vec3> normals(n, Vec3::Zero());
-  normals_of_rows(points, neighborhoods, 0, params, normals);
+  normals_of_rows(points, neighborhoods, {}, 0, params, normals);
+  return normals;
+}
+
+std::vector<Vec3> normals_of_queries(std::span<const Vec3> points, NeighborhoodsView rows,
+                                     std::span<const Index> queries, const QuadricProjectionParams& params) {
+  require(rows.size() == queries.size(), "normals_of_queries: one neighbourhood row per query");
+  std::vector<Vec3> normals(queries.size(), Vec3::Zero());
+  normals_of_rows(points, rows, queries, 0, params, normals);
   return normals;
 }
 
@@ -716,7 +724,7 @@ void finish_with_quadrics(std::vector<Vec3>& points, const QuadricProjectionPara
     for (std::size_t first = 0; first < n; first += kQuadricBlock) {
       const std::size_t count = std::min(kQuadricBlock, n - first);
       block_queries(first, count, near_k);
-      normals_of_rows(stored, rows, first, params, std::span<Vec3>(normals).subspan(first, count));
+      normals_of_rows(stored, rows, {}, first, params, std::span<Vec3>(normals).subspan(first, count));
     }
     // Progress counts the seeds' fits and every point's placement, over all passes.
     const std::size_t per_pass = n + (sharing ? seeds.size() : 0), total = per_pass * static_cast<std::size_t>(params.passes);

@@ -45,11 +45,12 @@ std::uint64_t morton_code(const MortonGrid& grid, const Vec3& p) {
   return spread_bits(axis(q.x())) | spread_bits(axis(q.y())) << 1 | spread_bits(axis(q.z())) << 2;
 }
 
-std::vector<Index> spatial_order(std::span<const Vec3> points) {
+std::vector<Index> spatial_order(std::span<const Vec3> points) { return spatial_order(points, morton_grid(points)); }
+
+std::vector<Index> spatial_order(std::span<const Vec3> points, const MortonGrid& grid) {
   const std::size_t n = points.size();
   std::vector<Index> order(n);
   if (n == 0) return order;
-  const MortonGrid grid = morton_grid(points);
   std::vector<std::pair<std::uint64_t, Index>> keyed(n);
   parallel_for(n, [&](std::size_t begin, std::size_t end) {
     for (std::size_t i = begin; i < end; ++i) keyed[i] = {morton_code(grid, points[i]), static_cast<Index>(i)};

@@ -91,6 +91,10 @@ std::array<double, 2> colour_range(const fs::path& container, ColourBy by, doubl
 
 }  // namespace
 
+bool container_has_normal_columns(const fs::path& container) {
+  return !io::normal_columns(tiles::ContainerChunkReader(container, {.original_order = false}).schema()).empty();
+}
+
 ExportSummary export_container(const fs::path& container, const fs::path& output, const OutputOptions& out,
                                const tiles::StreamExportOptions& options, const fs::path& input) {
   ExportSummary summary;
@@ -101,9 +105,7 @@ ExportSummary export_container(const fs::path& container, const fs::path& output
   }
   const bool colour = summary.has_results && out.colour_by != ColourBy::None;
   // Normals of the input no longer match smoothed positions: the run's replace them.
-  const bool stale_normals =
-      summary.has_results &&
-      !io::normal_columns(tiles::ContainerChunkReader(container, {.original_order = false}).schema()).empty();
+  const bool stale_normals = summary.has_results && container_has_normal_columns(container);
   const bool results = summary.has_results && (out.attributes || colour || stale_normals);
   // The curvature columns' type, for every chunk alike: double when any value would not fit
   // float (a cloud at an extreme scale), as in core (curvature_type).

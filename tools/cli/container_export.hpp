@@ -17,6 +17,10 @@ struct ExportSummary {
   bool has_results = false;
 };
 
+/// Whether the points of `container` have normal columns (io::normal_columns of its schema):
+/// a run's normals replace them on export.
+bool container_has_normal_columns(const std::filesystem::path& container);
+
 /// Writes `container` to `output` (tiles::export_points with options.original_order,
 /// input_positions and memory_budget), with colour and attribute columns from a finished run
 /// as `out` asks (the colour range is the exact clip quantile of the whole cloud, found in a

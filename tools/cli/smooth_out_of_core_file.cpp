@@ -14,12 +14,10 @@
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/atomic_file.hpp"
-#include "pointfair/io/attribute_roles.hpp"
 #include "pointfair/io/file_lock.hpp"
 #include "pointfair/io/point_folder.hpp"
 #include "pointfair/tiles/budget.hpp"
 #include "pointfair/tiles/container.hpp"
-#include "pointfair/tiles/container_reader.hpp"
 #include "pointfair/tiles/hdf5_file.hpp"
 #include "pointfair/tiles/import.hpp"
 
@@ -204,8 +202,7 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
   // in core: the input's normal columns (refreshed), --attributes, colours. A container
   // output keeps them for later exports; a folder's files may each have normals.
   ooc.attributes = container_out || folder || output.attributes || output.colour_by != ColourBy::None ||
-                   (!result.nothing_selected &&
-                    !io::normal_columns(tiles::ContainerChunkReader(run_input, {.original_order = false}).schema()).empty());
+                   (!result.nothing_selected && container_has_normal_columns(run_input));
   // What keeps the committed steps when `progress` stops the run (as after a kill), for a
   // resume to continue.
   const std::string kept_in = !run.keep_interrupted ? std::string()

@@ -153,6 +153,11 @@ Neighborhoods quadric_neighborhoods(std::span<const Vec3> points, const QuadricP
 std::vector<Vec3> neighbourhood_normals(std::span<const Vec3> points, const Neighborhoods& neighborhoods,
                                         const QuadricProjectionParams& params);
 
+/// The normals of some points: element r is point queries[r]'s over row r of `rows` (its
+/// nearest first), as neighbourhood_normals gives it. Parallel.
+std::vector<Vec3> normals_of_queries(std::span<const Vec3> points, NeighborhoodsView rows,
+                                     std::span<const Index> queries, const QuadricProjectionParams& params);
+
 /// out[i] = project_to_quadric(points[i], the neighbours j of row i with
 /// |normals[i] . normals[j]| >= cos(normal_angle)), for every point. Parallel; `out` must not
 /// alias `points`.

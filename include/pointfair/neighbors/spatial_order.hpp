@@ -31,6 +31,8 @@ std::uint64_t morton_code(const MortonGrid& grid, const Vec3& p);
 /// order[s] = the index of the point stored at position s: points sorted by the Morton code
 /// of their position quantised to 21 bits per axis over the bounding box, ties by index.
 std::vector<Index> spatial_order(std::span<const Vec3> points);
+/// The same on a given grid (a whole cloud's, for some of its points).
+std::vector<Index> spatial_order(std::span<const Vec3> points, const MortonGrid& grid);
 
 /// The inverse permutation: inverse[order[s]] = s.
 std::vector<Index> inverse_permutation(std::span<const Index> order);

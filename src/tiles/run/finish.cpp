@@ -17,6 +17,18 @@ bool gathered_around(const Box& own, double halo, const Vec3& p, double reach) {
   return true;
 }
 
+// Whether `row` (point i's nearest, `want` long in core) is certain to be the in-core one: it is
+// that long and all of it was gathered. A point of the part lies in its box, so that its
+// row's farthest entry within the halo suffices; another point's whole ball must lie inside
+// what was gathered.
+bool certain_row(const Box& own, double halo, std::span<const Vec3> positions, Index i, bool of_part,
+                 std::span<const Index> row, std::size_t want) {
+  if (row.size() < want || row.empty()) return false;
+  const double farthest = (positions[row.back()] - positions[i]).norm();
+  return of_part ? farthest < halo * (1.0 - kHaloMargin)
+                 : gathered_around(own, halo, positions[i], farthest + halo * kHaloMargin);
+}
+
 }  // namespace
 
 std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const LocalSet& local,
@@ -36,17 +48,10 @@ std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const 
   lists.fits = build_neighborhoods(local.positions, local.queries, static_cast<int>(row_k), inf);
   std::vector<char> in_tile(n, 0), named(n, 0);
   for (const Index i : local.queries) in_tile[i] = 1;
-  // Whether `row` (point i's, `want` long in core) is the in-core one; its points named. A
-  // point of the part lies in its box, so that its row's farthest entry within the halo
-  // suffices; a halo point's (a seed's) whole ball must lie inside what was gathered.
+  // Whether `row` (point i's, `want` long in core) is the in-core one (certain_row); its
+  // points named.
   const auto check_row = [&](std::span<const Index> row, Index i, std::size_t want) {
-    if (!all) {
-      if (row.size() < want) return false;
-      const double farthest = (local.positions[row.back()] - local.positions[i]).norm();
-      if (in_tile[i] ? !(farthest < halo * (1.0 - kHaloMargin))
-                     : !gathered_around(own, halo, local.positions[i], farthest + halo * kHaloMargin))
-        return false;
-    }
+    if (!all && !certain_row(own, halo, local.positions, i, in_tile[i] != 0, row, want)) return false;
     for (const Index j : row) named[j] = !in_tile[j];
     return true;
   };
@@ -75,12 +80,9 @@ std::optional<FinishLists> Run::finish_lists(const Box& own, double halo, const 
   const Neighborhoods near = build_neighborhoods(local.positions, halo_queries, m, inf);
   if (!all) {
     // A halo point's ball lies inside the box around the tile that was gathered.
-    for (std::size_t r = 0; r < near.size(); ++r) {
-      const std::span<const Index> row = near.of(r);
-      if (row.size() < static_cast<std::size_t>(m)) return std::nullopt;
-      const Vec3& p = local.positions[halo_queries[r]];
-      if (!gathered_around(own, halo, p, (local.positions[row.back()] - p).norm() + halo * kHaloMargin)) return std::nullopt;
-    }
+    for (std::size_t r = 0; r < near.size(); ++r)
+      if (!certain_row(own, halo, local.positions, halo_queries[r], false, near.of(r), static_cast<std::size_t>(m)))
+        return std::nullopt;
   }
   // The normals' rows: the tile's points and the halo points the fits name; the others empty.
   Neighborhoods& normal_rows = lists.normals;
@@ -115,12 +117,8 @@ std::optional<OwnFitRows> Run::own_fit_rows(const Box& own, double halo, const L
   std::vector<char> named(local.positions.size(), 0);
   for (std::size_t r = 0; r < rows.fits.size(); ++r) {
     const std::span<const Index> row = rows.fits.of(r);
-    if (!all) {
-      // The queries are the part's points: inside its box.
-      if (row.size() < kk) return std::nullopt;
-      const double farthest = (local.positions[row.back()] - local.positions[queries[r]]).norm();
-      if (!(farthest < halo * (1.0 - kHaloMargin))) return std::nullopt;
-    }
+    // The queries are the part's points.
+    if (!all && !certain_row(own, halo, local.positions, queries[r], true, row, kk)) return std::nullopt;
     for (const Index j : row)
       if (!has_normal[j] && !named[j]) {
         named[j] = 1;
@@ -131,29 +129,13 @@ std::optional<OwnFitRows> Run::own_fit_rows(const Box& own, double halo, const L
   const int m = std::min(q.k, q.normal_neighbors);
   rows.normals = build_neighborhoods(local.positions, rows.named, m, inf);
   if (!all)
-    for (std::size_t r = 0; r < rows.normals.size(); ++r) {
-      const std::span<const Index> row = rows.normals.of(r);
-      if (row.size() < static_cast<std::size_t>(m)) return std::nullopt;
-      const Vec3& p = local.positions[rows.named[r]];
-      if (!gathered_around(own, halo, p, (local.positions[row.back()] - p).norm() + halo * kHaloMargin))
+    for (std::size_t r = 0; r < rows.normals.size(); ++r)
+      if (!certain_row(own, halo, local.positions, rows.named[r], false, rows.normals.of(r), static_cast<std::size_t>(m)))
         return std::nullopt;
-    }
   return rows;
 }
 
 namespace {
-
-// The normal finish_with_quadrics gives point i of `points` over its nearest `row`: the robust
-// plane's over the first normal_neighbors (neighbourhood_normals's, to the bit), 0 where none.
-Vec3 normal_of_row(std::span<const Vec3> points, Index i, std::span<const Index> row,
-                   const QuadricProjectionParams& q) {
-  const std::size_t m = std::min<std::size_t>(row.size(), static_cast<std::size_t>(q.normal_neighbors));
-  std::vector<Vec3> offsets(m);
-  for (std::size_t j = 0; j < m; ++j) offsets[j] = points[row[j]] - points[i];
-  std::vector<double> weights(m + 1, 0.0), scratch(m + 1);
-  const RobustPlane plane = fit_robust_plane(offsets, q.frame, weights, scratch);
-  return plane.valid ? plane.normal : Vec3::Zero();
-}
 
 // What finish_part holds for `gathered` points of which `queries` are the part's (fits of k,
 // normals of m neighbours) and `seeds` have a shared fit: the gathered set (40 bytes a point;
@@ -334,8 +316,8 @@ bool Run::finish_part(std::size_t t, const TilePart& part, const QuadricProjecti
         account(needed);
         continue;
       }
-      for (std::size_t r = 0; r < own->named.size(); ++r)
-        normals[own->named[r]] = normal_of_row(local->positions, own->named[r], own->normals.of(r), q);
+      const std::vector<Vec3> named_normals = normals_of_queries(local->positions, own->normals, own->named, q);
+      for (std::size_t r = 0; r < own->named.size(); ++r) normals[own->named[r]] = named_normals[r];
       std::vector<Vec3> own_out(own_queries.size()), own_anchors;
       if (!out_anchors.empty())
         for (const std::size_t r : own_rows) own_anchors.push_back(out_anchors[r]);
