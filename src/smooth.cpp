@@ -3,7 +3,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <tuple>
 #include <utility>
 
@@ -12,8 +11,8 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/params_error.hpp"
+#include "pointfair/flow/coarse_moves.hpp"
 #include "pointfair/flow/shrink_compensation.hpp"
-#include "pointfair/neighbors/kd_tree.hpp"
 #include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/neighbors/coarse_sample.hpp"
 #include "pointfair/neighbors/spatial_order.hpp"
@@ -292,8 +291,8 @@ bool run_coarse_level(std::vector<Vec3>& positions, const SmoothParams& params,
   // Only the coarse points' moves across the surface (along their normals) carry over: their
   // slide along it (the free flow's, towards denser parts) would move the points off the
   // places the placement keeps.
-  const PointAttributes frames = compute_attributes(coarse, coarse_report.neighborhoods, coarse_params.flow,
-                                                    coarse_report.lambda);
+  const PointAttributes frames = compute_normals(coarse, coarse_report.neighborhoods, coarse_params.flow,
+                                                 coarse_report.lambda);
   parallel_for(coarse.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t j = begin; j < end; ++j) {
       const Vec3& n = frames.normal[j];
@@ -302,24 +301,7 @@ bool run_coarse_level(std::vector<Vec3>& positions, const SmoothParams& params,
   }, 4096);
   // Each point moves by the coarse displacement around it: Gaussian weights over its
   // interpolation_k nearest coarse input points, the farthest at weight exp(-2).
-  const KdTree tree(coarse_input);
-  const int want = std::min<int>(c.interpolation_k, static_cast<int>(coarse_input.size()));
-  parallel_for(positions.size(), [&](std::size_t begin, std::size_t end) {
-    std::vector<Index> near(static_cast<std::size_t>(want));
-    std::vector<double> d2(static_cast<std::size_t>(want));
-    for (std::size_t i = begin; i < end; ++i) {
-      const int found = tree.nearest(positions[i], want, std::numeric_limits<double>::infinity(), near.data(), d2.data());
-      const double reach2 = d2[static_cast<std::size_t>(found - 1)] > 0.0 ? d2[static_cast<std::size_t>(found - 1)] : 1.0;
-      Vec3 moved = Vec3::Zero();
-      double weights = 0.0;
-      for (int j = 0; j < found; ++j) {
-        const double w = std::exp(-2.0 * d2[static_cast<std::size_t>(j)] / reach2);
-        moved += w * (coarse[near[static_cast<std::size_t>(j)]] - coarse_input[near[static_cast<std::size_t>(j)]]);
-        weights += w;
-      }
-      positions[i] += moved / weights;
-    }
-  }, 1024);
+  add_coarse_moves(positions, coarse_input, coarse, c.interpolation_k, cells.grid);
   return true;
 }
 

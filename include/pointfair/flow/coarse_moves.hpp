@@ -1,0 +1,21 @@
+#pragma once
+// The coarse level's moves carried to every point (SmoothParams::coarse): each point moves by
+// a Gaussian-weighted mean of the displacements of its nearest coarse points, the farthest of
+// them at weight exp(-2).
+#include <span>
+
+#include "pointfair/neighbors/spatial_order.hpp"
+#include "pointfair/types.hpp"
+
+namespace pointfair {
+
+/// Adds to every position the weighted mean of moved[j] - anchors[j] over its k nearest
+/// anchors (k >= 1; all of them when fewer), nearest first, ties by the smaller anchor index,
+/// weights exp(-2 d^2 / d_k^2) with d_k the distance to the farthest of them (1 when that is
+/// 0). The anchors are searched in the Morton order of `grid` (a grid over the positions and
+/// the anchors) and the positions visited in it: the result does not depend on it. anchors
+/// and moved have one entry per coarse point. Parallel; positions and anchors finite.
+void add_coarse_moves(std::span<Vec3> positions, std::span<const Vec3> anchors, std::span<const Vec3> moved, int k,
+                      const MortonGrid& grid);
+
+}  // namespace pointfair
