@@ -12,10 +12,10 @@
 
 namespace pointfair {
 
-void add_coarse_moves(std::span<Vec3> positions, std::span<const Vec3> anchors, std::span<const Vec3> moved, int k,
+double add_coarse_moves(std::span<Vec3> positions, std::span<const Vec3> anchors, std::span<const Vec3> moved, int k,
                       const MortonGrid& grid) {
   assert(anchors.size() == moved.size() && k >= 1);
-  if (anchors.empty() || positions.empty()) return;
+  if (anchors.empty() || positions.empty()) return anchors.empty() ? std::numeric_limits<double>::infinity() : 0.0;
   // The tree over the anchors in Morton order, so that a query's search stays in a few pages;
   // the positions visited in the same order. Ties are put back in anchor index order below.
   const std::vector<Index> anchor_order = spatial_order(anchors, grid);
@@ -24,6 +24,7 @@ void add_coarse_moves(std::span<Vec3> positions, std::span<const Vec3> anchors, 
   const KdTree tree(sorted);
   const std::vector<Index> visit = spatial_order(std::span<const Vec3>(positions.data(), positions.size()), grid);
   const int want = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(k), anchors.size()));
+  std::vector<double> reach(positions.size());
   parallel_for(positions.size(), [&](std::size_t begin, std::size_t end) {
     std::vector<Index> near;
     std::vector<double> d2;
@@ -42,6 +43,7 @@ void add_coarse_moves(std::span<Vec3> positions, std::span<const Vec3> anchors, 
         if (found < ask || d2[static_cast<std::size_t>(found - 1)] != d2[static_cast<std::size_t>(want - 1)]) break;
         ask *= 2;
       }
+      reach[s] = found < ask ? std::numeric_limits<double>::infinity() : d2[static_cast<std::size_t>(found - 1)];
       found_anchors.resize(static_cast<std::size_t>(found));
       for (int j = 0; j < found; ++j)
         found_anchors[static_cast<std::size_t>(j)] = {d2[static_cast<std::size_t>(j)], anchor_order[near[static_cast<std::size_t>(j)]]};
@@ -60,6 +62,7 @@ void add_coarse_moves(std::span<Vec3> positions, std::span<const Vec3> anchors, 
       p += move / weights;
     }
   }, 1024);
+  return *std::max_element(reach.begin(), reach.end());
 }
 
 }  // namespace pointfair

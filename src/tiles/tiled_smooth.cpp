@@ -2,6 +2,7 @@
 
 #include <string>
 
+#include "coarse/coarse_stages.hpp"
 #include "run/run.hpp"
 
 namespace pointfair::tiles {
@@ -22,7 +23,7 @@ fs::path partial_name(const fs::path& output) {
 
 OutOfCoreReport smooth_out_of_core(const fs::path& input, const fs::path& output, const SmoothParams& params,
                                    const OutOfCoreOptions& options) {
-  require(!params.coarse, "the coarse level (--coarse-level) runs in core only: give a larger --memory-budget or leave it off");
+  if (params.coarse) return coarse::smooth_with_coarse_level(input, output, params, options, false);
   detail::Run run(input, output, params, options);
   return run.run();
 }

@@ -531,16 +531,6 @@ TEST_F(TiledSmoothTest, ZeroStepsAndTinyClouds) {
   }
 }
 
-TEST_F(TiledSmoothTest, TheCoarseLevelIsRefusedBeforeAnyWork) {
-  // In core only for now (SmoothParams::coarse): refused before the run file is made.
-  const io::PointTable cloud = test::noisy_cube(500, 16);
-  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 100}));
-  SmoothParams params = few_steps(2);
-  params.coarse = CoarseLevelParams{};
-  EXPECT_THROW(smooth_out_of_core(path("in.h5"), path("run.h5"), params), ParamError);
-  EXPECT_FALSE(std::filesystem::exists(path("run.h5")));
-}
-
 TEST_F(TiledSmoothTest, ResumesToTheSameBits) {
   const io::PointTable cloud = test::noisy_cube(4000, 15);
   const SmoothParams params = few_steps(5);

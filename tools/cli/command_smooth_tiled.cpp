@@ -126,6 +126,9 @@ int run_smooth_out_of_core(const Args& args) {
 
   // One progress line per phase of the run (not of the import), from the run's start.
   std::optional<Progress> progress, finish_progress, attributes_progress;
+  // The coarse level's phases (--coarse-level): its sample, its own steps, the moves.
+  std::optional<Progress> coarse_progress;
+  std::string coarse_phase;
   OutOfCoreFileSmooth run;
   run.input = input;
   run.output = output_path;
@@ -150,6 +153,18 @@ int run_smooth_out_of_core(const Args& args) {
     throw_if_interrupted("the run so far is kept in " + std::string(at.kept_in) +
                          ": run the same command with --resume to continue");
     const auto d = static_cast<long long>(at.done), t = static_cast<long long>(at.total);
+    if (at.phase == "coarse sample" || at.phase == "coarse step" || at.phase == "coarse moves") {
+      if (at.phase != coarse_phase) {
+        coarse_progress.reset();
+        coarse_phase = at.phase;
+        coarse_progress.emplace("smooth (out of core): coarse level, " +
+                                    (at.phase == "coarse step" ? std::string("step") : std::string(at.phase.substr(7)) + " of tiles"),
+                                !output.quiet);
+      }
+      coarse_progress->update(d, t);
+      return;
+    }
+    if (coarse_progress) coarse_progress.reset();
     if (at.phase == "step") {
       progress->update(d, t);
     } else if (at.phase == "finish") {

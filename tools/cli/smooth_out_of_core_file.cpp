@@ -98,7 +98,7 @@ JsonObject summary_json(const OutOfCoreFileSmooth& run, const tiles::OutOfCoreRe
   const bool selecting = !run.select.selection.all();
   const int steps_here = report.steps - report.resumed_from;
   JsonObject seconds;
-  seconds.add("neighbors", report.seconds_neighbors).add("steps", report.seconds_steps)
+  seconds.add("coarse_level", report.seconds_coarse).add("neighbors", report.seconds_neighbors).add("steps", report.seconds_steps)
       .add("finish", report.seconds_finish).add("attributes", report.seconds_attributes)
       .add("write", seconds_write).add("total", seconds_total);
   JsonObject j;
@@ -114,6 +114,7 @@ JsonObject summary_json(const OutOfCoreFileSmooth& run, const tiles::OutOfCoreRe
                                           : std::string("unknown (the steps ended before this resume)"));
   j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
   j.add("quadric_finish", finish_json(params));
+  if (params.coarse) j.add("coarse_level", coarse_level_json(*params.coarse, report.coarse_levels));
   j.add("placement", name_of(params.finish ? params.placement : Placement::Free));
   j.add("memory_budget_bytes", static_cast<std::size_t>(run.options.memory_budget));
   j.add("peak_accounted_bytes", static_cast<std::size_t>(report.peak_accounted_bytes));

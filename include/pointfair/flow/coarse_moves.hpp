@@ -15,7 +15,11 @@ namespace pointfair {
 /// 0). The anchors are searched in the Morton order of `grid` (a grid over the positions and
 /// the anchors) and the positions visited in it: the result does not depend on it. anchors
 /// and moved have one entry per coarse point. Parallel; positions and anchors finite.
-void add_coarse_moves(std::span<Vec3> positions, std::span<const Vec3> anchors, std::span<const Vec3> moved, int k,
+///
+/// Returns the largest squared distance from a position to the farthest anchor its search
+/// read (+infinity when one read every anchor): a tile that holds every anchor within that
+/// distance of its points gets the whole cloud's result (out of core).
+double add_coarse_moves(std::span<Vec3> positions, std::span<const Vec3> anchors, std::span<const Vec3> moved, int k,
                       const MortonGrid& grid);
 
 }  // namespace pointfair

@@ -35,6 +35,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "pointfair/common/params_error.hpp"
 #include "pointfair/finish/quadric_projection.hpp"
@@ -99,6 +100,13 @@ struct OutOfCoreOptions {
   /// original order. Its positions are copied into the run in row order, in passes over
   /// blocks of an eighth of the budget (each reads the reference again). Empty: the input.
   std::filesystem::path neighbor_reference;
+  /// Start the flow from this container's positions instead of the input's (the coarse
+  /// level's moved points): a container with the input's tiles and rows, as many points. The
+  /// input's positions stay the points the finish places along the normals (SmoothParams::
+  /// placement), as SmoothOptions::input_positions in core; the automatic k, eps and lambda
+  /// and the first neighbourhoods are measured on the start. Copied into the run (24 bytes a
+  /// point of disk). Empty: the input.
+  std::filesystem::path start_positions;
   /// Stop (as if killed) after this many steps committed by this call; < 0: never. For tests.
   int stop_after_steps = -1;
   /// Stop (as if killed) after this many finish passes committed by this call; < 0: never.
@@ -164,6 +172,9 @@ struct OutOfCoreReport {
   /// Why the flow stopped, where this call ran its last step or found the automatic stop
   /// (SmoothReport::stop_reason); empty when it resumed a run whose steps had ended.
   std::optional<StopReason> stop_reason;
+  /// The coarse levels that ran (SmoothParams::coarse), finest first, as SmoothReport's.
+  std::vector<CoarseLevelReport> coarse_levels;
+  double seconds_coarse = 0.0;
   double seconds_neighbors = 0.0;
   double seconds_steps = 0.0;
   double seconds_finish = 0.0;

@@ -166,7 +166,7 @@ void Run::for_each_sample_knn(std::uint64_t stride, int want, const char* stage,
             ok = false;
             continue;
           }
-          measure(mine[i].first, idx, d2, local.positions);
+          measure(mine[i].first, idx, d2, local.positions, queries[i]);
         }
       }, 64);
       if (ok) break;
@@ -189,7 +189,7 @@ double Run::resolve_eps_tiled() {
   std::vector<double> kth(samples, 0.0);
   for_each_sample_knn(stride, want, "eps",
                       [&](std::uint64_t sample, std::span<const Index>, std::span<const double> d2,
-                          std::span<const Vec3>) { kth[sample] = d2.empty() ? 0.0 : std::sqrt(d2.back()); });
+                          std::span<const Vec3>, Index) { kth[sample] = d2.empty() ? 0.0 : std::sqrt(d2.back()); });
   ranks_->max(kth);  // each sample was measured by the rank of its tile, 0 elsewhere
   auto mid = kth.begin() + static_cast<std::ptrdiff_t>(samples / 2);
   std::nth_element(kth.begin(), mid, kth.end());
@@ -198,27 +198,68 @@ double Run::resolve_eps_tiled() {
   return np.eps_auto_factor * spacing;
 }
 
-int Run::resolve_k_tiled() {
-  // automatic_k(): the noise ratio of the points with original index s * stride, each over its
-  // kNoiseProbePoints nearest points, found in the tile and a halo that holds them all.
+void Run::open_step0_positions() {
+  read_input_tables();
+  const fs::path& source = options_.start_positions.empty() ? input_path_ : options_.start_positions;
+  file_.emplace(h5::File::open(source, false));
+  if (!options_.start_positions.empty()) {
+    // The start's own tile bounds (its points are not the input's); the same rows.
+    const TileTable start = read_tile_table(file());
+    if (start.offsets != tiles_.offsets)
+      file().fail(layout::tile_offsets, "the start positions' tiles are not those of " + input_path_.string());
+    tiles_.bounds = start.bounds;
+    constexpr double inf = std::numeric_limits<double>::infinity();
+    global_bounds_ = {inf, inf, inf, -inf, -inf, -inf};
+    for (const Box& b : tiles_.bounds)
+      for (std::size_t c = 0; c < 3; ++c) {
+        global_bounds_[c] = std::min(global_bounds_[c], b[c]);
+        global_bounds_[c + 3] = std::max(global_bounds_[c + 3], b[c + 3]);
+      }
+  }
+}
+
+NoiseEstimate Run::measure_noise() {
+  open_step0_positions();
+  balance(false);
+  const NoiseEstimate estimate = noise_tiled();
+  file_.reset();
+  read_input_tables();
+  return estimate;
+}
+
+NoiseEstimate Run::noise_tiled() {
+  // estimate_noise(): the noise ratio of the points with original index s * stride, each over
+  // its kNoiseProbePoints nearest points, found in the tile and a halo that holds them all,
+  // and the median distance from them to their nearest other point.
+  if (n_ < 8) return {};
   const std::uint64_t stride = noise_sample_stride(n_);
   const std::uint64_t samples = (n_ + stride - 1) / stride;
   const int want = static_cast<int>(std::min<std::uint64_t>(kNoiseProbePoints, n_));
   // -1: not this rank's sample; -0.5: measured, not usable (NaN, which a max would not carry).
-  std::vector<double> ratios(samples, -1.0);
+  std::vector<double> ratios(samples, -1.0), nearest_d2(samples, -1.0);
   for_each_sample_knn(stride, want, "k",
                       [&](std::uint64_t sample, std::span<const Index> idx, std::span<const double> d2,
-                          std::span<const Vec3> positions) {
+                          std::span<const Vec3> positions, Index self) {
                         std::vector<ProbePoint> probe;
                         probe.reserve(idx.size());
                         for (std::size_t j = 0; j < idx.size(); ++j) probe.push_back({d2[j], positions[idx[j]]});
                         const double g = noise_ratio(probe, probe.size() == n_);
                         ratios[sample] = std::isfinite(g) ? g : -0.5;
+                        double closest = std::numeric_limits<double>::infinity();
+                        for (std::size_t j = 0; j < idx.size(); ++j)
+                          if (idx[j] != self) closest = std::min(closest, d2[j]);
+                        nearest_d2[sample] = closest;
                       });
   ranks_->max(ratios);  // each sample was measured by the rank of its tile
+  ranks_->max(nearest_d2);
   for (double& g : ratios)
     if (g < 0.0) g = std::numeric_limits<double>::quiet_NaN();
-  return k_for_noise_ratio(cloud_noise_ratio(ratios));
+  NoiseEstimate estimate;
+  estimate.ratio = cloud_noise_ratio(ratios);
+  const auto middle = nearest_d2.begin() + static_cast<std::ptrdiff_t>(samples / 2);
+  std::nth_element(nearest_d2.begin(), middle, nearest_d2.end());
+  estimate.spacing = std::isfinite(*middle) ? std::sqrt(*middle) : 0.0;
+  return estimate;
 }
 
 void Run::build_neighbors(int step) {
@@ -283,6 +324,30 @@ void Run::build_neighbors(int step) {
   state_[kNeighborsDone] = 1;
   state_[kNeighborsStep] = step;
   commit_state();
+}
+
+void Run::load_start() {
+  // The same tiles and rows: this rank's rows copied a block at a time.
+  const h5::File start = h5::File::open(options_.start_positions, false);
+  const h5::Dataset source = start.dataset(layout::positions);
+  if (source.rows() != n_ || source.width() != 3)
+    start.fail(layout::positions, "has " + std::to_string(source.rows()) + " rows, " + input_path_.string() + " has " +
+                                      std::to_string(n_) + " points");
+  h5::Dataset target = file().dataset(kStartPositions);
+  // Blocks of a 64th of the budget.
+  const std::uint64_t rows = std::clamp<std::uint64_t>(options_.memory_budget / 64 / sizeof(Vec3), 1024, kScanBlock);
+  std::vector<Vec3> block;
+  for (std::uint64_t first = my_first_row(); first < my_end_row(); first += rows) {
+    const std::uint64_t count = std::min(rows, my_end_row() - first);
+    block.resize(count);
+    source.read_rows(first, count, block.data()->data());
+    for (std::uint64_t r = 0; r < count; ++r)
+      if (!block[r].allFinite())
+        start.fail(layout::positions, "row " + std::to_string(first + r) + " has a non-finite coordinate");
+    target.write_rows(first, count, block.data()->data());
+  }
+  account(bytes(block));
+  file().flush();  // every rank's rows before any rank gathers a halo of them
 }
 
 void Run::load_reference() {

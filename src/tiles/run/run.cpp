@@ -60,6 +60,7 @@ std::string Run::key() const {
     k += ':';
     k += std::to_string(ec ? 0 : size);
   }
+  if (!options_.start_positions.empty()) k += " start_from=" + options_.start_positions.filename().string();
   return k;
 }
 
@@ -185,6 +186,10 @@ void Run::create(const fs::path& partial, const std::string& digest) {
   f.create_dataset(positions_buffer(1), h5::Type::Float64, n_, 3, rows);
   if (momentum_on())
     for (const int parity : {0, 1}) f.create_dataset(moves_buffer(parity), h5::Type::Float64, n_, 3, rows);
+  if (!options_.start_positions.empty()) {
+    f.create_dataset(kStartPositions, h5::Type::Float64, n_, 3, rows);
+    f.set_attribute(layout::run, "start_from", options_.start_positions.filename().string());
+  }
   if (!options_.neighbor_reference.empty()) {
     f.create_dataset(kReferencePositions, h5::Type::Float64, n_, 3, rows);
     f.set_attribute(layout::run, "neighbors_from", options_.neighbor_reference.filename().string());
@@ -259,6 +264,7 @@ std::string Run::input_digest() const {
   state = io::digest_update(state, tiles_.bounds.data(), tiles_.bounds.size() * sizeof(Box));
   std::string digest = io::digest_text(state);
   if (!options_.neighbor_reference.empty()) digest += " reference:" + io::file_digest(options_.neighbor_reference);
+  if (!options_.start_positions.empty()) digest += " start:" + io::file_digest(options_.start_positions);
   return digest;
 }
 
@@ -335,12 +341,10 @@ OutOfCoreReport Run::run() {
   OutOfCoreReport report;
   read_input_tables();
   if (params_.neighbors.k == 0) {
-    // The automatic k, measured on the input's positions (as smooth() does), before the run
-    // file is created (its lists have k columns), also on --resume. Every rank reads the input.
-    file_.emplace(h5::File::open(input_path_, false));
-    balance(false);
-    params_.neighbors.k = resolve_k_tiled();
-    file_.reset();
+    // The automatic k, measured on the input's positions (as smooth() does; on the start
+    // positions when given), before the run file is created (its lists have k columns), also
+    // on --resume. Every rank reads the input.
+    params_.neighbors.k = k_for_noise_ratio(measure_noise().ratio);
   }
   report.k = k();
   open_or_create();
@@ -350,6 +354,12 @@ OutOfCoreReport Run::run() {
   auto t0 = Clock::now();
   balance(false);  // by points: the halos are not known yet
   if (state_[kNeighborsDone] == 0) {
+    if (!options_.start_positions.empty()) {
+      // Step 0's positions from the start, and the tiles' bounds around them.
+      load_start();
+      neighbor_source_ = kStartPositions;
+      measure_bounds();
+    }
     if (!options_.neighbor_reference.empty()) {
       // The first lists from the reference's positions, with halos around its tiles' bounds.
       load_reference();
@@ -369,6 +379,16 @@ OutOfCoreReport Run::run() {
   report.positions_held = holding_;
   release_positions();  // the finish and the attributes need the room
   release_scratch();
+  // The lambda sample: the lambda of a run that took steps is in its step log from here on
+  // (a run without steps measures it on the sample at the end).
+  if (steps_done && final_steps_ > 0) {
+    free_vector(sample_rows_);
+    free_vector(sample_neighbors_);
+    free_vector(sample_counts_);
+    free_vector(sample_local_);
+    free_vector(gather_rows_);
+    free_vector(gather_positions_);
+  }
   const bool finish_done = steps_done && run_finish(report);
   if (!finish_done) {
     report.neighbors_cached = caching_ && !ran_blocks_;
@@ -389,7 +409,7 @@ OutOfCoreReport Run::run() {
     lambda = final_steps_ < params_.steps ? stop_lambda_ : entry[0];
     report.degenerate = static_cast<std::size_t>(entry[1]);
   } else if (auto_lambda_on()) {
-    load_sample_positions(file().dataset(layout::positions));
+    load_sample_positions(file().dataset(step0_source()));
     lambda = sample_lambda();
   }
   report.lambda = lambda;

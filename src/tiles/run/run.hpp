@@ -93,6 +93,8 @@ inline constexpr double kHaloMargin = 1e-9;
 
 // SmoothOptions::neighbor_reference out of core: the reference's positions in row order.
 inline constexpr const char* kReferencePositions = "/run/reference_positions";
+// OutOfCoreOptions::start_positions: the positions of step 0 in row order.
+inline constexpr const char* kStartPositions = "/run/start_positions";
 // Per row of /run/neighbors/local: which tile row the list belongs to (see TileNeighbors).
 // Absent from runs started by an older version: their lists stay in row order.
 inline constexpr const char* kLocalOrder = "/run/neighbors/local_order";
@@ -207,6 +209,10 @@ class Run {
         ranks_(options.ranks != nullptr ? options.ranks : &single_) {}
 
   OutOfCoreReport run();
+  // estimate_noise() of the input's positions (of OutOfCoreOptions::start_positions when
+  // given), the same bits, from strided samples each found in its tile and a halo; every rank
+  // takes part. Makes no file.
+  NoiseEstimate measure_noise();
 
  private:
   void read_input_tables();
@@ -234,8 +240,18 @@ class Run {
     return params_.rebuild_interval > 0 && step > 0 && step % params_.rebuild_interval == 0;
   }
   double resolve_eps_tiled();
-  int resolve_k_tiled();
-  // Calls measure(sample, indices, squared distances, local positions) for every point of this
+  // measure_noise() on the open file_ (the input, or the start positions' container).
+  NoiseEstimate noise_tiled();
+  // The tile table and bounds of the positions step 0 starts from (the input's, or
+  // OutOfCoreOptions::start_positions'), with the input's file open as file_.
+  void open_step0_positions();
+  // OutOfCoreOptions::start_positions copied into kStartPositions (this rank's rows).
+  void load_start();
+  std::string step0_source() const {
+    return options_.start_positions.empty() ? std::string(layout::positions) : std::string(kStartPositions);
+  }
+  // Calls measure(sample, indices, squared distances, local positions, the sample's local
+  // index) for every point of this
   // rank's tiles whose original index is a multiple of `stride`, with its `want` nearest points
   // (itself included) among its tile and a halo grown until it holds them all. Concurrent.
   template <class Measure>
@@ -396,7 +412,7 @@ class Run {
   // Levels of a block of h steps (BlockSlot): h, or 2 h when compensated.
   int block_depth(int h) const { return compensated() ? 2 * h : h; }
   std::string current_source() const {
-    return state_[kStepBuffer] == 0 ? std::string(layout::positions)
+    return state_[kStepBuffer] == 0 ? step0_source()
                                     : positions_buffer(static_cast<int>((state_[kStepBuffer] - 1) % 2));
   }
   // Whether the current buffer holds each tile's rows in the order of its lists (kStepBuffer).
@@ -464,7 +480,7 @@ class Run {
   double eps_ = 0.0;
   // The positions neighbourhoods are built from (the input's, the reference's or the current
   // step's), and the bounds of every tile's points in it (the tile table's for the input).
-  std::string neighbor_source_ = layout::positions;
+  std::string neighbor_source_ = layout::positions;  // kStartPositions once the run starts from them
   Box global_bounds_{};
   std::uint64_t max_tile_rows_ = 0;
 

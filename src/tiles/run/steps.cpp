@@ -87,7 +87,7 @@ double Run::lambda_at_start(int start, bool every_step) {
     file().dataset(layout::run_step_log).read_rows(static_cast<std::uint64_t>(start - 1), 1, entry);
     return entry[0];
   }
-  load_sample_positions(file().dataset(built_at == 0 ? std::string(layout::positions) : current_source()));
+  load_sample_positions(file().dataset(built_at == 0 ? step0_source() : current_source()));
   const double lambda = sample_lambda();
   free_vector(gather_positions_);
   return lambda;
