@@ -315,6 +315,29 @@ TEST_F(MpiRunTest, QuadricFinishOnTwoRanksBitIdenticalToOneProcess) {
   expect_same_run("ref.h5", "b.h5");
 }
 
+// The coarse level (--coarse-level): its stages on rank 0, its runs on every rank; the single
+// process's run to the bit, and one stopped in the coarse sample's run resumes on 3 ranks.
+TEST_F(MpiRunTest, CoarseLevelOnRanksBitIdenticalToOneProcess) {
+  io::PointTable heavy;
+  heavy.positions = sample_sphere(12000, 1.0, 41).points;
+  add_noise(heavy.positions, 0.07, 42);
+  std::filesystem::remove(path("in.h5"));
+  write_container(path("in.h5"), heavy, test::tiled({.max_tile_points = 1500}));
+  params_.coarse = CoarseLevelParams{};
+  method_ = " --coarse-level";
+  run_serial("ref.h5");
+  ASSERT_EQ(run_mpi(2, "out.h5"), 0) << log_;
+  expect_same_run("ref.h5", "out.h5");
+  EXPECT_FALSE(std::filesystem::exists(path("out.h5.partial.coarse"))) << "the work folder is left behind";
+
+  OutOfCoreOptions options;
+  options.stop_after_steps = 2;
+  EXPECT_FALSE(smooth_out_of_core(path("in.h5"), path("b.h5"), params_, options).finished);
+  ASSERT_TRUE(std::filesystem::is_directory(path("b.h5.partial.coarse")));
+  ASSERT_EQ(run_mpi(3, "b.h5", "", true), 0) << log_;
+  expect_same_run("ref.h5", "b.h5");
+}
+
 TEST_F(MpiRunTest, MissingInputEndsEveryRankWithTheFileNamed) {
   std::filesystem::remove(path("in.h5"));
   const int code = run_mpi(2, "out.h5");
