@@ -43,6 +43,12 @@ SmoothParams paper_smooth_params(SmoothParams base) {
   return base;
 }
 
+QuadricProjectionParams finish_after(const SmoothParams& params, bool coarse_level_ran) {
+  QuadricProjectionParams q = *params.finish;
+  if (coarse_level_ran && params.coarse && params.coarse->finish_passes > 0) q.passes = params.coarse->finish_passes;
+  return q;
+}
+
 SmoothParams resolve_k(SmoothParams params, std::span<const Vec3> input) {
   if (params.neighbors.k == 0) params.neighbors.k = automatic_k(input);
   return params;
@@ -132,6 +138,7 @@ void CoarseLevelParams::validate() const {
   require(levels >= 1 && levels <= 8, "coarse levels must be in 1..8, got " + std::to_string(levels));
   require(cell_spacings > 0.0 && std::isfinite(cell_spacings),
           "coarse cell spacings must be positive, got " + std::to_string(cell_spacings));
+  require(finish_passes >= 0, "coarse finish passes must be >= 0, got " + std::to_string(finish_passes));
   require(min_noise_ratio >= 0.0 && std::isfinite(min_noise_ratio),
           "coarse minimum noise ratio must be >= 0, got " + std::to_string(min_noise_ratio));
 }
@@ -326,8 +333,6 @@ SmoothReport flow_with_levels(std::vector<Vec3>& positions, SmoothParams params,
 SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested, const SmoothOptions& options) {
   requested.validate();
   require_finite(positions, "smooth");
-  require(!requested.coarse || options.neighbor_reference.empty(),
-          "a coarse level cannot take neighbourhoods from a reference cloud");
   require(options.input_positions.empty() || options.input_positions.size() == positions.size(),
           "smooth: input_positions must hold one position per point (" + std::to_string(options.input_positions.size()) +
               " vs " + std::to_string(positions.size()) + ")");
@@ -342,7 +347,10 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
   }
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<CoarseLevelReport> levels;
-  SmoothReport report = flow_with_levels(positions, requested, options, levels);
+  // Neighbourhoods from a reference cloud are for the points as they are: no coarse level.
+  SmoothParams params = requested;
+  if (!options.neighbor_reference.empty()) params.coarse.reset();
+  SmoothReport report = flow_with_levels(positions, params, options, levels);
   report.coarse_levels = std::move(levels);
   if (!report.coarse_levels.empty())
     report.seconds_coarse = seconds_since(t0) - report.seconds_neighbors - report.seconds_steps;
@@ -351,8 +359,9 @@ SmoothReport smooth(std::vector<Vec3>& positions, const SmoothParams& requested,
   FinishProgress finish_progress;
   if (options.progress)
     finish_progress = [&](std::size_t done, std::size_t total) { options.progress(SmoothStage::Finish, done, total); };
-  finish_with_quadrics(positions, *requested.finish, input, finish_progress);
-  report.finish_passes = requested.finish->passes;
+  const QuadricProjectionParams finish = finish_after(requested, !report.coarse_levels.empty());
+  finish_with_quadrics(positions, finish, input, finish_progress);
+  report.finish_passes = finish.passes;
   report.placed_along_normal = place;
   report.seconds_finish = seconds_since(t1);
   return report;

@@ -204,6 +204,7 @@ TEST(Momentum, HeavyNoiseGoesInFewerSteps) {
   std::vector<Vec3> plain = input, moving = input;
   SmoothParams params;
   params.finish.reset();  // the flow's own figures
+  params.coarse.reset();  // the flow on every point from the start
   params.momentum = 0.0;
   const SmoothReport plain_report = smooth(plain, params);
   params.momentum = 0.7;

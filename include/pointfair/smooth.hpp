@@ -58,10 +58,19 @@ struct CoarseLevelParams {
   /// own when levels >= 2, and so on.
   int levels = 1;
   /// The coarse levels run only when the input's noise is at least this many sample spacings
-  /// (estimate_noise; >= 0): the flow removes lighter noise in a few steps, and the coarse
-  /// level made it worse there (fandisk and bunny, 50K points at 0.5% noise, ratios 1.02 and
-  /// 1.09: RMS +14% and +32%; fandisk at 200K, ratio 1.62: -18%; docs/coarse-level.md).
-  double min_noise_ratio = 1.5;
+  /// (estimate_noise; >= 0). Below it the flow alone takes a few dozen steps at most, and the
+  /// coarse level, closer to the surface or not, left worse normals near creases: the demo's
+  /// octahedron (16K points, 1.76 spacings) RMS +7% and +1.0 degrees near creases, fandisk at
+  /// 200K and 0.5% (1.62) RMS -5% but +1.6 degrees; from 2 spacings on it won: a 65K-point
+  /// octahedron at 1.5% (2.16) RMS -19% and -2.5 degrees, fandisk at 1M and 0.5% (2.14) RMS
+  /// -16% and -1.5 degrees, in a quarter of the steps (docs/coarse-level.md).
+  double min_noise_ratio = 2.0;
+  /// The quadric finish's passes after a coarse level ran (>= 0; 0: SmoothParams::finish's
+  /// own). Its points come to the finish nearer the surface than the flow alone leaves them,
+  /// and one pass did as well as two (the 1M-point fandisk at 0.5%: RMS 0.608 against 0.590,
+  /// near creases 20.4 against 19.5 degrees, for 4.0 s of the finish's 7.5;
+  /// docs/coarse-level.md); without a coarse level one pass lost 3-4% of RMS.
+  int finish_passes = 1;
   void validate() const;
 };
 
@@ -171,9 +180,10 @@ struct SmoothParams {
   /// Where the output points go (Placement); AlongNormal needs the finish and is ignored
   /// without it.
   Placement placement = Placement::AlongNormal;
-  /// A coarse level before the flow (CoarseLevelParams); empty: none. In core only for now
-  /// (smooth_out_of_core refuses it).
-  std::optional<CoarseLevelParams> coarse;
+  /// A coarse level before the flow (CoarseLevelParams, beyond the paper); empty: none. On
+  /// by default: it runs only under heavy noise (CoarseLevelParams::min_noise_ratio), where
+  /// it is faster and closer to the surface (docs/coarse-level.md).
+  std::optional<CoarseLevelParams> coarse = CoarseLevelParams{};
 
   void validate() const;
 };
@@ -219,6 +229,10 @@ std::string_view to_string(SmoothStage stage);
 /// free flow's positions and feature classes thresholded by lambda, no coarse level. The CLI's --paper.
 SmoothParams paper_smooth_params(SmoothParams base = {});
 
+/// The finish a run of `params` takes (params.finish must hold one): its passes
+/// CoarseLevelParams::finish_passes when a coarse level ran.
+QuadricProjectionParams finish_after(const SmoothParams& params, bool coarse_level_ran);
+
 /// `params` with neighbors.k resolved: automatic_k(input) when it is 0.
 SmoothParams resolve_k(SmoothParams params, std::span<const Vec3> input);
 
@@ -239,6 +253,7 @@ bool measures_lambda_before(const SmoothParams& params, int step);
 struct SmoothOptions {
   /// Build the (first) neighbourhoods from these positions instead of the input; same point
   /// order and count as the input (the paper's "noise-free neighbourhoods", Figures 3, 6d).
+  /// The coarse level (SmoothParams::coarse) does not run then.
   std::span<const Vec3> neighbor_reference;
   /// Called with (stage, done, total): after each step (steps done, the most steps) and after
   /// each block of each finish pass (points done over all passes, points x passes). May throw

@@ -23,7 +23,14 @@ fs::path partial_name(const fs::path& output) {
 
 OutOfCoreReport smooth_out_of_core(const fs::path& input, const fs::path& output, const SmoothParams& params,
                                    const OutOfCoreOptions& options) {
-  if (params.coarse) return coarse::smooth_with_coarse_level(input, output, params, options, false);
+  // As in core, neighbourhoods from a reference cloud leave out the coarse level.
+  if (params.coarse && options.neighbor_reference.empty())
+    return coarse::smooth_with_coarse_level(input, output, params, options, false);
+  if (params.coarse) {
+    SmoothParams without = params;
+    without.coarse.reset();
+    return detail::Run(input, output, without, options).run();
+  }
   detail::Run run(input, output, params, options);
   return run.run();
 }

@@ -651,9 +651,11 @@ TEST_F(CliInfoTest, HeavyNoiseGetsTheHintOfFewerSteps) {
     EXPECT_EQ(r.exit_code, 0) << r.err;
     return r.out;
   };
-  const std::string heavy = info_of("heavy.ply", 0.1), light = info_of("light.ply", 0.002);
-  EXPECT_NE(heavy.find("--coarse-level"), std::string::npos) << heavy;
-  EXPECT_EQ(light.find("--coarse-level"), std::string::npos) << light;
+  const std::string heavy = info_of("heavy.ply", 0.3), light = info_of("light.ply", 0.002);
+  EXPECT_NE(heavy.find("--no-coarse-level"), std::string::npos) << heavy;
+  EXPECT_NE(heavy.find("1 pass of fits"), std::string::npos) << heavy;
+  EXPECT_EQ(light.find("coarse-level"), std::string::npos) << light;
+  EXPECT_NE(light.find("2 passes of fits"), std::string::npos) << light;
 }
 
 TEST_F(CliInfoTest, ReadsTheEpsgCodeOfGeoTiffKeys) {

@@ -69,6 +69,8 @@ std::map<std::string, std::string> library_defaults() {
       {"coarse-cell", text(CoarseLevelParams{}.cell_spacings)},
       {"coarse-levels", text(CoarseLevelParams{}.levels)},
       {"coarse-fine-steps", text(CoarseLevelParams{}.fine_steps)},
+      {"coarse-finish-passes", text(CoarseLevelParams{}.finish_passes)},
+      {"coarse-min-noise", text(CoarseLevelParams{}.min_noise_ratio)},
   };
 }
 

@@ -26,6 +26,12 @@
 namespace pointfair::cli {
 namespace {
 
+// Whether the defaults run a coarse level on a cloud with this noise ratio.
+bool coarse_level_runs(double noise_ratio) {
+  const SmoothParams defaults;
+  return defaults.coarse && noise_ratio >= defaults.coarse->min_noise_ratio;
+}
+
 namespace fs = std::filesystem;
 
 // 1234567 as "1,234,567".
@@ -146,11 +152,13 @@ JsonObject file_json(const fs::path& file, const FileSummary& s, const DefaultsE
   }
   j.add("attributes", attributes);
   if (d != nullptr) {
-    const QuadricProjectionParams finish = *SmoothParams{}.finish;
+    const bool coarse = coarse_level_runs(d->noise.ratio);
+    const QuadricProjectionParams finish = finish_after(SmoothParams{}, coarse);
     j.add("spacing", d->noise.spacing).add("noise_ratio", d->noise.ratio).add("noise", d->noise.ratio * d->noise.spacing);
     j.add("defaults", JsonObject()
                           .add("k", d->k)
                           .add("eps", d->eps)
+                          .add("coarse_level", coarse)
                           .add("finish", JsonObject()
                                                .add("k", finish.k)
                                                .add("degree", finish.degree)
@@ -197,7 +205,8 @@ void print_file(const fs::path& file, const FileSummary& s, const DefaultsEstima
     return;
   }
   if (s.points < 8) return;
-  const QuadricProjectionParams finish = *SmoothParams{}.finish;
+  const bool coarse = coarse_level_runs(d->noise.ratio);
+  const QuadricProjectionParams finish = finish_after(SmoothParams{}, coarse);
   std::printf("  spacing    %s (median distance to the nearest point)\n", format_number(d->noise.spacing).c_str());
   std::printf("  noise      %s x the spacing = %s (lower quartile over samples)\n",
               format_number(d->noise.ratio).c_str(), format_number(d->noise.ratio * d->noise.spacing).c_str());
@@ -212,13 +221,14 @@ void print_file(const fs::path& file, const FileSummary& s, const DefaultsEstima
   const std::string passes = finish.passes == 1 || early == last
                                  ? "(" + last + ")"
                                  : "(the last " + last + "; before it " + early + ")";
-  std::printf("  defaults   k %d, eps %s; then the finish: %d passes of fits over %d neighbours %s\n", d->k,
-              format_number(d->eps).c_str(), finish.passes, finish.k, passes.c_str());
+  std::printf("  defaults   k %d, eps %s; then the finish: %d pass%s of fits over %d neighbours %s\n", d->k,
+              format_number(d->eps).c_str(), finish.passes, finish.passes == 1 ? "" : "es", finish.k, passes.c_str());
   // Where the flow needs many steps even with momentum (docs/coarse-level.md).
-  if (d->noise.ratio >= CoarseLevelParams{}.min_noise_ratio)
-    std::printf("  heavy      noise of %s spacings or more: 'pointfair smooth --coarse-level' takes "
-                "far fewer steps (in core)\n",
-                format_number(CoarseLevelParams{}.min_noise_ratio).c_str());
+  if (coarse)
+    std::printf("  coarse     noise of %s spacings or more: the defaults run the flow on every %s point "
+                "first (--no-coarse-level leaves it out)\n",
+                format_number(CoarseLevelParams{}.min_noise_ratio).c_str(),
+                CoarseLevelParams{}.ratio == 2 ? "second" : (std::to_string(CoarseLevelParams{}.ratio) + "th").c_str());
 }
 
 }  // namespace

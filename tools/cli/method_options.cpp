@@ -242,10 +242,13 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
   p.flag("coarse-level",
          "Before the flow on every point, run it on every --coarse-ratio-th point (in Morton "
          "order within cells of --coarse-cell spacings), move each point by the coarse displacement near it, then take "
-         "--coarse-fine-steps steps on every point; only where the input's noise is at least 1.5 "
-         "sample spacings (beyond the paper; in core only): under heavy noise closer to the "
-         "surface in fewer steps (docs/coarse-level.md). Default off.",
+         "--coarse-fine-steps steps on every point, and --coarse-finish-passes passes of the finish; only where "
+         "the input's noise is at least --coarse-min-noise sample spacings (beyond the paper; in core and out of core): under "
+         "heavy noise closer to the surface in fewer steps (docs/coarse-level.md). Default on (--paper: off); a "
+         "--coarse-* option turns it on.",
          [coarse] { coarse(); });
+  p.flag("no-coarse-level", "Run the flow on every point from the start (--paper implies it).",
+         [&s] { s.coarse.reset(); });
   p.group(OptionGroup::Advanced);
   p.value("coarse-ratio", "R",
           "Points per coarse point (>= 2). Implies --coarse-level. Default " + std::to_string(c.ratio) + ".",
@@ -263,6 +266,14 @@ void add_method_options(ArgumentParser& p, SmoothParams& s) {
           "Steps on every point after the coarse level (the automatic stop does not apply). "
           "Implies --coarse-level. Default " + std::to_string(c.fine_steps) + ".",
           [coarse](std::string_view v) { coarse().fine_steps = parse_int(v, "--coarse-fine-steps"); });
+  p.value("coarse-min-noise", "R",
+          "The input's noise (in sample spacings, as 'pointfair info' reports it) from which the coarse "
+          "level runs (>= 0). Implies --coarse-level. Default " + format_number(c.min_noise_ratio) + ".",
+          [coarse](std::string_view v) { coarse().min_noise_ratio = parse_double(v, "--coarse-min-noise"); });
+  p.value("coarse-finish-passes", "N",
+          "Passes of the quadric finish after a coarse level ran (0: --quadric-passes). Implies "
+          "--coarse-level. Default " + std::to_string(c.finish_passes) + ".",
+          [coarse](std::string_view v) { coarse().finish_passes = parse_int(v, "--coarse-finish-passes"); });
   p.group(before);
 }
 

@@ -189,7 +189,7 @@ JsonObject parameters_json(const SmoothParams& p, int k, double eps, double lamb
   return j;
 }
 
-JsonObject finish_json(const SmoothParams& p) {
+JsonObject finish_json(const SmoothParams& p, int passes_run) {
   const QuadricProjectionParams q = p.finish.value_or(QuadricProjectionParams{});
   JsonObject j;
   j.add("enabled", p.finish.has_value());
@@ -198,13 +198,16 @@ JsonObject finish_json(const SmoothParams& p) {
                                                                                 &QuadricParameter::json, name);
     add_parameter(j, name, parameter->value(q));
   }
+  // The passes the run took (CoarseLevelParams::finish_passes after a coarse level).
+  if (p.finish) j.add("passes_run", passes_run);
   return j;
 }
 
 JsonObject coarse_level_json(const CoarseLevelParams& coarse, const std::vector<CoarseLevelReport>& levels) {
   JsonObject j;
   j.add("ratio", coarse.ratio).add("cell_spacings", coarse.cell_spacings).add("fine_steps", coarse.fine_steps).add("interpolation_k", coarse.interpolation_k)
-      .add("levels_at_most", coarse.levels).add("min_noise_ratio", coarse.min_noise_ratio);
+      .add("levels_at_most", coarse.levels).add("min_noise_ratio", coarse.min_noise_ratio)
+      .add("finish_passes", coarse.finish_passes);
   std::vector<JsonObject> ran;
   for (const CoarseLevelReport& level : levels) {
     ran.emplace_back();

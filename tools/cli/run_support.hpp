@@ -80,8 +80,9 @@ JsonObject parameters_json(const SmoothParams& params, int k, double eps, double
 JsonObject& add_parameter(JsonObject& j, std::string_view name, const ParameterValue& value);
 
 /// The finish's parameters (SmoothParams::finish) as a JSON object; "enabled" says whether it
-/// runs; the others follow its table (finish/quadric_parameters.hpp) in kQuadricJsonOrder.
-JsonObject finish_json(const SmoothParams& params);
+/// runs; the others follow its table (finish/quadric_parameters.hpp) in kQuadricJsonOrder, then
+/// "passes_run": the passes the run took (passes_run).
+JsonObject finish_json(const SmoothParams& params, int passes_run);
 
 /// The coarse level's parameters (SmoothParams::coarse) and the levels that ran.
 JsonObject coarse_level_json(const CoarseLevelParams& coarse, const std::vector<CoarseLevelReport>& levels);

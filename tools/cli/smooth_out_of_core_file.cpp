@@ -113,7 +113,7 @@ JsonObject summary_json(const OutOfCoreFileSmooth& run, const tiles::OutOfCoreRe
   j.add("stop_reason", report.stop_reason ? std::string(to_string(*report.stop_reason))
                                           : std::string("unknown (the steps ended before this resume)"));
   j.add("parameters", parameters_json(params, report.k, report.eps, report.lambda));
-  j.add("quadric_finish", finish_json(params));
+  j.add("quadric_finish", finish_json(params, report.finish_passes));
   if (params.coarse) j.add("coarse_level", coarse_level_json(*params.coarse, report.coarse_levels));
   j.add("placement", name_of(params.finish ? params.placement : Placement::Free));
   j.add("memory_budget_bytes", static_cast<std::size_t>(run.options.memory_budget));

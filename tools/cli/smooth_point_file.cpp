@@ -123,7 +123,7 @@ PointFileSmoothResult smooth_point_file(const PointFileSmooth& run) {
   j.add("neighbors_from", run.reference);
   if (selecting) j.add("selection", selection_json(run.select, table.size(), moved_points));
   if (params.coarse) j.add("coarse_level", coarse_level_json(*params.coarse, report.coarse_levels));
-  j.add("quadric_finish", finish_json(params));
+  j.add("quadric_finish", finish_json(params, report.finish_passes));
   j.add("placement", name_of(report.placed_along_normal ? Placement::AlongNormal : Placement::Free));
   j.add("seconds", seconds).add("point_steps_per_second", result.rate);
   j.add("displacement", to_json(result.moved)).add("degenerate_points", result.degenerate);

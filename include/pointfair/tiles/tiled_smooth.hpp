@@ -98,7 +98,8 @@ struct OutOfCoreOptions {
   /// Build the first neighbourhoods from this cloud instead of the input (SmoothOptions::
   /// neighbor_reference): a point file or container with the same points in the input's
   /// original order. Its positions are copied into the run in row order, in passes over
-  /// blocks of an eighth of the budget (each reads the reference again). Empty: the input.
+  /// blocks of an eighth of the budget (each reads the reference again). The coarse level
+  /// (SmoothParams::coarse) does not run then, as in core. Empty: the input.
   std::filesystem::path neighbor_reference;
   /// Start the flow from this container's positions instead of the input's (the coarse
   /// level's moved points): a container with the input's tiles and rows, as many points. The

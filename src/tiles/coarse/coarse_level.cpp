@@ -246,6 +246,7 @@ OutOfCoreReport smooth_with_coarse_level(const fs::path& input, const fs::path& 
   // Every point then takes fine_steps steps from where the coarse level left it, on
   // neighbourhoods of those positions; the finish places the input points.
   SmoothParams fine = plain;
+  if (fine.finish) fine.finish = finish_after(params, true);
   fine.steps = c.fine_steps;
   fine.stop_lambda_ratio = 0.0;
   fine.stop_plateau = 0.0;

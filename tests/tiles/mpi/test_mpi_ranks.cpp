@@ -10,6 +10,7 @@
 #include <optional>
 #include <sstream>
 
+#include "pointfair/neighbors/neighborhood_size.hpp"
 #include "pointfair/tiles/container.hpp"
 #include "pointfair/tiles/tiled_smooth.hpp"
 #include "tiles_test_util.hpp"
@@ -323,8 +324,9 @@ TEST_F(MpiRunTest, CoarseLevelOnRanksBitIdenticalToOneProcess) {
   add_noise(heavy.positions, 0.07, 42);
   std::filesystem::remove(path("in.h5"));
   write_container(path("in.h5"), heavy, test::tiled({.max_tile_points = 1500}));
-  params_.coarse = CoarseLevelParams{};
-  method_ = " --coarse-level";
+  ASSERT_GE(estimate_noise(heavy.positions).ratio, 1.5);
+  params_.coarse = CoarseLevelParams{.min_noise_ratio = 1.5};  // this sphere's noise: 1.58 spacings
+  method_ = " --coarse-min-noise 1.5";
   run_serial("ref.h5");
   ASSERT_EQ(run_mpi(2, "out.h5"), 0) << log_;
   expect_same_run("ref.h5", "out.h5");
