@@ -108,10 +108,11 @@ int run_smooth(const Args& args) {
   const DisplacementStats& moved = result.moved;
   if (!output.quiet && result.smoothed) {
     std::fprintf(stderr,
-                 "smooth: %zu points, %d %s steps (k %d, tau %g, lambda %.4g, eps %.4g) in %.2f s "
+                 "smooth: %zu points, %d %s steps%s (k %d, tau %g, lambda %.4g, eps %.4g) in %.2f s "
                  "(%.3g point-steps/s); displacement mean %.4g, max %.4g (%.3g%% of the diagonal); "
                  "%zu degenerate points -> %s\n",
-                 result.selected, report.steps, to_string(params.flow.flow).c_str(), report.k, params.flow.tau,
+                 result.selected, report.steps, to_string(params.flow.flow).c_str(),
+                 coarse_level_text(report.coarse_levels).c_str(), report.k, params.flow.tau,
                  report.lambda, report.eps, result.seconds_total, result.rate, moved.mean, moved.max,
                  moved.diagonal > 0 ? 100.0 * moved.max / moved.diagonal : 0.0, result.degenerate,
                  output_path.c_str());

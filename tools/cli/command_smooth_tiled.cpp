@@ -12,6 +12,7 @@
 #include "out_of_core.hpp"
 #include "point_folder_run.hpp"
 #include "progress.hpp"
+#include "run_support.hpp"
 #include "selection_options.hpp"
 #include "smooth_out_of_core_file.hpp"
 #include "pointfair/common/parallel.hpp"
@@ -184,11 +185,11 @@ int run_smooth_out_of_core(const Args& args) {
   const tiles::OutOfCoreReport& report = result.report;
   if (!output.quiet && !result.nothing_selected)
     std::fprintf(stderr,
-                 "smooth: %llu %spoints in %zu tiles, %d steps (%d resumed) out of core (k %d, lambda %.4g, eps %.4g) "
+                 "smooth: %llu %spoints in %zu tiles, %d steps (%d resumed)%s out of core (k %d, lambda %.4g, eps %.4g) "
                  "in %.2f s (%.3g point-steps/s); working memory %.1f MiB of %.1f MiB; %zu degenerate "
                  "points -> %s\n",
                  static_cast<unsigned long long>(report.points), selecting ? "selected " : "", report.tiles, report.steps,
-                 report.resumed_from, report.k, report.lambda, report.eps, result.seconds_total, result.rate,
+                 report.resumed_from, coarse_level_text(report.coarse_levels).c_str(), report.k, report.lambda, report.eps, result.seconds_total, result.rate,
                  static_cast<double>(report.peak_accounted_bytes) / (1 << 20),
                  static_cast<double>(ooc.memory_budget) / (1 << 20), report.degenerate, output_path.c_str());
   if (output.json) std::cout << result.json.str() << std::endl;

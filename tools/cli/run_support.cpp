@@ -203,6 +203,14 @@ JsonObject finish_json(const SmoothParams& p, int passes_run) {
   return j;
 }
 
+std::string coarse_level_text(const std::vector<CoarseLevelReport>& levels) {
+  std::string text;
+  for (const CoarseLevelReport& level : levels)
+    text += std::string(text.empty() ? " after a coarse level on " : ", itself after one on ") +
+            std::to_string(level.points) + " points (" + std::to_string(level.steps) + " steps)";
+  return text;
+}
+
 JsonObject coarse_level_json(const CoarseLevelParams& coarse, const std::vector<CoarseLevelReport>& levels) {
   JsonObject j;
   j.add("ratio", coarse.ratio).add("cell_spacings", coarse.cell_spacings).add("fine_steps", coarse.fine_steps).add("interpolation_k", coarse.interpolation_k)

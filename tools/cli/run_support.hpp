@@ -85,6 +85,10 @@ JsonObject& add_parameter(JsonObject& j, std::string_view name, const ParameterV
 JsonObject finish_json(const SmoothParams& params, int passes_run);
 
 /// The coarse level's parameters (SmoothParams::coarse) and the levels that ran.
+/// " after a coarse level on N points (S steps)" for each coarse level that ran, coarsest
+/// last; empty when none ran. For the runs' one-line summaries.
+std::string coarse_level_text(const std::vector<CoarseLevelReport>& levels);
+
 JsonObject coarse_level_json(const CoarseLevelParams& coarse, const std::vector<CoarseLevelReport>& levels);
 
 }  // namespace pointfair::cli
