@@ -68,6 +68,7 @@ std::string_view to_string(SmoothStage stage) {
     case SmoothStage::Neighbors: return "neighbors";
     case SmoothStage::Steps: return "steps";
     case SmoothStage::Finish: return "finish";
+    case SmoothStage::CoarseSteps: return "coarse_steps";
   }
   return "?";
 }
@@ -269,7 +270,7 @@ SmoothReport flow_with_levels(std::vector<Vec3>& positions, SmoothParams params,
 // min_noise_ratio) and the coarse sample large enough: the sample smoothed (with coarse levels
 // of its own, recursively) and every point moved by the displacement around it. False when
 // there was none.
-bool run_coarse_level(std::vector<Vec3>& positions, const SmoothParams& params,
+bool run_coarse_level(std::vector<Vec3>& positions, const SmoothParams& params, const SmoothOptions& options,
                       std::vector<CoarseLevelReport>& levels) {
   const CoarseLevelParams& c = *params.coarse;
   // The noise estimate of a coarse sample does not fall as its spacing grows (the surface's
@@ -293,7 +294,14 @@ bool run_coarse_level(std::vector<Vec3>& positions, const SmoothParams& params,
   const std::size_t at = levels.size();
   levels.push_back({coarse_input.size(), 0});
   std::vector<Vec3> coarse = coarse_input;
-  const SmoothReport coarse_report = flow_with_levels(coarse, coarse_params, {}, levels);
+  // Its steps reported as the coarse level's (a coarser level's too).
+  SmoothOptions coarse_options;
+  if (options.progress)
+    coarse_options.progress = [&options](SmoothStage stage, std::size_t done, std::size_t total) {
+      if (stage == SmoothStage::Steps || stage == SmoothStage::CoarseSteps)
+        options.progress(SmoothStage::CoarseSteps, done, total);
+    };
+  const SmoothReport coarse_report = flow_with_levels(coarse, coarse_params, coarse_options, levels);
   levels[at].steps = coarse_report.steps;
   // Only the coarse points' moves across the surface (along their normals) carry over: their
   // slide along it (the free flow's, towards denser parts) would move the points off the
@@ -316,7 +324,7 @@ SmoothReport flow_with_levels(std::vector<Vec3>& positions, SmoothParams params,
                               std::vector<CoarseLevelReport>& levels) {
   const int requested_k = params.neighbors.k;
   params = resolve_k(params, positions);
-  if (params.coarse && run_coarse_level(positions, params, levels)) {
+  if (params.coarse && run_coarse_level(positions, params, options, levels)) {
     // Every point then takes fine_steps steps, on neighbourhoods of the positions the coarse
     // level left (the automatic k measured on them when it was automatic).
     params.steps = params.coarse->fine_steps;

@@ -217,9 +217,10 @@ bool has_momentum(const SmoothParams& params);
 std::string_view to_string(StopReason reason);
 
 /// A stage of smooth(), for progress.
-enum class SmoothStage { Neighbors, Steps, Finish };
+enum class SmoothStage { Neighbors, Steps, Finish, CoarseSteps };
 
-/// "neighbors", "steps", "finish".
+/// "neighbors", "steps", "finish", "coarse_steps" (the steps of a coarse level's flow,
+/// SmoothParams::coarse).
 std::string_view to_string(SmoothStage stage);
 
 /// The method as the paper states it, on top of `base` (its neighbourhoods, lambda and

@@ -2,6 +2,7 @@
 
 #include <pybind11/numpy.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -36,7 +37,7 @@ std::function<void(const std::string&, std::uint64_t, std::uint64_t)> stage_hook
   };
 }
 
-// SmoothOptions::progress: the stage is 'steps' or 'finish'.
+// SmoothOptions::progress: the stage is 'coarse_steps', 'steps' or 'finish'.
 std::function<void(SmoothStage, std::size_t, std::size_t)> progress_hook(const py::object& callback) {
   return [hook = stage_hook(callback)](SmoothStage stage, std::size_t done, std::size_t total) {
     hook(std::string(to_string(stage)), done, total);
@@ -47,7 +48,10 @@ std::function<void(SmoothStage, std::size_t, std::size_t)> progress_hook(const p
 // run's phase ('k', 'eps', 'neighbors', 'steps', 'finish', 'attributes').
 std::function<void(const cli::OutOfCoreProgress&)> out_of_core_progress_hook(const py::object& callback) {
   return [hook = stage_hook(callback)](const cli::OutOfCoreProgress& at) {
-    hook(at.importing ? "import" : at.phase == "step" ? "steps" : std::string(at.phase), at.done, at.total);
+    std::string phase = at.importing ? std::string("import") : std::string(at.phase);
+    if (phase == "step" || phase == "coarse step") phase += "s";
+    std::replace(phase.begin(), phase.end(), ' ', '_');
+    hook(phase, at.done, at.total);
   };
 }
 
@@ -188,7 +192,8 @@ quadric_early_iterations, quadric_curvature_reach, quadric_min_k,
 quadric_share, quadric_share_turn),
 paper=True (the --paper preset; the other options override it), threads (0: all cores),
 neighbors_from ((N, 3) positions to build the neighbourhoods from), progress (called as
-progress(stage, done, total) with stage 'steps' or 'finish'; an exception it raises ends the
+progress(stage, done, total) with stage 'coarse_steps' (the coarse level's, under heavy noise),
+'steps' or 'finish'; an exception it raises ends the
 run). Ctrl-C ends the run at the next step. The GIL is released while it runs.)doc");
   m.def("curvature", &curvature, py::arg("points"),
         R"doc(curvature(points, **options) -> dict
@@ -206,8 +211,10 @@ neighbors_from=path), progress. As the command, it runs out of core (tiles strea
 HDF5 file beside OUTPUT, the same bits as in core) for an HDF5 container input or output and
 for a cloud whose in-core run does not fit memory_budget (bytes, or '256M', '2G'; 256M for a
 container without one); the summary then has 'out_of_core': True, 'tiles' and the run's memory
-figures. progress(stage, done, total) is called with stage 'steps' or 'finish' in core, and
-'import', 'k', 'eps', 'neighbors', 'steps', 'finish' or 'attributes' out of core. A run that
+figures. progress(stage, done, total) is called with stage 'coarse_steps', 'steps' or 'finish'
+in core, and 'import', 'k', 'eps', 'neighbors', 'steps', 'finish' or 'attributes' out of core,
+those of the coarse level's run prefixed with 'coarse_' ('coarse_sample', 'coarse_steps',
+'coarse_moves', ...). A run that
 fails or is interrupted (Ctrl-C raises KeyboardInterrupt) leaves no file behind (no resume
 here). The GIL is released while it runs.)doc");
 }

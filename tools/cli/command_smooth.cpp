@@ -1,6 +1,8 @@
 // pointfair smooth IN OUT: the (an)isotropic mean curvature flow on a point file.
 #include <cstdio>
 #include <iostream>
+#include <optional>
+#include <string>
 
 #include "commands.hpp"
 #include "pointfair/io/atomic_file.hpp"
@@ -72,8 +74,10 @@ int run_smooth(const Args& args) {
   if (auto_stop)
     step_label = "smooth: step (stops once the noise measure lambda falls to " + format_number(params.stop_lambda_ratio) +
                  " of its start or levels off)";
-  Progress steps_progress(step_label, !output.quiet);
-  Progress finish_progress("smooth: finish (quadric fits and placements, all passes)", !output.quiet);
+  // Each made at its stage's first report, so that its time left counts from there; the steps'
+  // named by whether a coarse level ran before (then they take --coarse-fine-steps, without
+  // the stop).
+  std::optional<Progress> coarse_progress, steps_progress, finish_progress;
   PointFileSmooth run;
   run.input = input;
   run.output = output_path;
@@ -83,16 +87,27 @@ int run_smooth(const Args& args) {
   run.output_options = output;
   run.progress = [&](SmoothStage stage, std::size_t done, std::size_t total) {
     throw_if_interrupted();  // unwinds out of smooth(): nothing has been written yet
-    if (stage == SmoothStage::Steps) {
-      steps_progress.update(static_cast<long long>(done), static_cast<long long>(total));
+    if (stage == SmoothStage::CoarseSteps) {
+      if (!coarse_progress)
+        coarse_progress.emplace("smooth: coarse level (the flow on every second point first), step", !output.quiet);
+      coarse_progress->update(static_cast<long long>(done), static_cast<long long>(total));
+    } else if (stage == SmoothStage::Steps) {
+      if (!steps_progress) {
+        if (coarse_progress) coarse_progress->finish();
+        steps_progress.emplace(coarse_progress ? std::string("smooth: step (after the coarse level)") : step_label,
+                               !output.quiet);
+      }
+      steps_progress->update(static_cast<long long>(done), static_cast<long long>(total));
     } else if (stage == SmoothStage::Finish) {
-      steps_progress.finish();
-      finish_progress.update(static_cast<long long>(done), static_cast<long long>(total));
+      if (steps_progress) steps_progress->finish();
+      if (!finish_progress) finish_progress.emplace("smooth: finish (quadric fits and placements, all passes)", !output.quiet);
+      finish_progress->update(static_cast<long long>(done), static_cast<long long>(total));
     }
   };
   run.check = [&] {
-    steps_progress.finish();
-    finish_progress.finish();
+    if (coarse_progress) coarse_progress->finish();
+    if (steps_progress) steps_progress->finish();
+    if (finish_progress) finish_progress->finish();
     throw_if_interrupted();
   };
   run.note = stderr_notes(output.quiet);
