@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
@@ -91,9 +92,14 @@ NoiseEstimate estimate_noise(std::span<const Vec3> points) {
       nearest_d2[s] = closest;
     }
   }, 64);
+  return noise_estimate_of(ratios, std::move(nearest_d2));
+}
+
+NoiseEstimate noise_estimate_of(std::span<const double> ratios, std::vector<double> nearest_d2) {
   NoiseEstimate estimate;
   estimate.ratio = cloud_noise_ratio(ratios);
-  const auto middle = nearest_d2.begin() + static_cast<std::ptrdiff_t>(samples / 2);
+  if (nearest_d2.empty()) return estimate;
+  const auto middle = nearest_d2.begin() + static_cast<std::ptrdiff_t>(nearest_d2.size() / 2);
   std::nth_element(nearest_d2.begin(), middle, nearest_d2.end());
   estimate.spacing = std::isfinite(*middle) ? std::sqrt(*middle) : 0.0;
   return estimate;

@@ -157,4 +157,20 @@ TEST_F(KillResumeTest, MomentumKilledAndResumedIsBitIdentical) {
   test::expect_identical(path("ref.h5"), test::run_in_core(cloud, params));
 }
 
+// The coarse level: killed in its stages (the sample, its own run, the moves) or in the run
+// after it, resumed from what its work folder holds: smooth()'s bits, and no folder left.
+TEST_F(KillResumeTest, CoarseLevelKilledAndResumedIsBitIdentical) {
+  io::PointTable cloud;
+  cloud.positions = sample_sphere(12000, 1.0, 41).points;
+  add_noise(cloud.positions, 0.07, 42);  // 1.58 sample spacings
+  write_container(path("in.h5"), cloud, test::tiled({.max_tile_points = 1500}));
+  kill_and_resume({"--coarse-min-noise", "1.5", "--threads", "2", "--quiet"});
+  EXPECT_FALSE(std::filesystem::exists(coarse_folder_name(path("out.h5"))));
+  SmoothParams params;
+  params.coarse->min_noise_ratio = 1.5;
+  const test::InCore ref = test::run_in_core(cloud, params);
+  ASSERT_FALSE(ref.report.coarse_levels.empty());
+  test::expect_identical(path("out.h5"), ref);
+}
+
 }  // namespace

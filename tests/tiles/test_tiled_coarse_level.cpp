@@ -46,7 +46,9 @@ SmoothParams with_coarse_level(int levels = 1) {
 }
 
 std::filesystem::path folder_of(const std::filesystem::path& output) {
-  return std::filesystem::path(partial_name(output).string() + ".coarse");
+  const std::filesystem::path folder = coarse_folder_name(output);
+  EXPECT_EQ(folder.filename(), output.filename().string() + ".partial.coarse");
+  return folder;
 }
 
 void expect_same_levels(const std::vector<CoarseLevelReport>& a, const std::vector<CoarseLevelReport>& b) {

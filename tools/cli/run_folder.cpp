@@ -4,6 +4,7 @@
 #include <system_error>
 
 #include "pointfair/io/point_table.hpp"
+#include "pointfair/tiles/tiled_smooth.hpp"
 
 namespace pointfair::cli {
 
@@ -42,7 +43,8 @@ std::unique_ptr<io::FolderLock> open_run_folder(const fs::path& folder, bool res
   if (!made) {
     for (const auto& entry : fs::directory_iterator(folder, ec)) {
       const std::string name = entry.path().filename().string();
-      if (name != "input.h5" && name != "run.h5" && name != "run.h5.partial" && !name.starts_with("."))
+      if (name != "input.h5" && name != "run.h5" && name != "run.h5.partial" && name != "run.h5.partial.coarse" &&
+          !name.starts_with("."))
         throw io::IoError(folder.string() + ": holds files this tool did not make (" + name +
                           "): it is left alone; remove or rename it");
     }
@@ -51,6 +53,7 @@ std::unique_ptr<io::FolderLock> open_run_folder(const fs::path& folder, bool res
 }
 
 void remove_run_folder(const fs::path& folder) {
+  tiles::remove_coarse_folder(folder / "run.h5");
   for (const char* name : {"input.h5", "run.h5", "run.h5.partial"}) remove_quietly(folder / name);
   remove_quietly(folder);  // only when empty: a temporary still being removed keeps it
 }

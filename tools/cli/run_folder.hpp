@@ -1,7 +1,7 @@
 #pragma once
 // The folder of an out-of-core run that reads or writes a point file: ".<OUT's name>.pointfair-run"
 // beside OUT, holding the imported input ("input.h5") and the run ("run.h5",
-// "run.h5.partial"). The run's own files live in a folder the run made, so that they can
+// "run.h5.partial", and the coarse level's folder "run.h5.partial.coarse"). The run's own files live in a folder the run made, so that they can
 // never be a user's file; the folder is locked while the run works and removed when it ends,
 // but for an interrupted run, which a resume continues.
 #include <filesystem>

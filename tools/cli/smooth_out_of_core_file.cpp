@@ -29,6 +29,13 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// Whether an interrupted run writing `output` left something to resume: its partial file, or
+// its coarse level's folder.
+bool has_run(const fs::path& output) {
+  std::error_code ec;
+  return fs::exists(tiles::partial_name(output), ec) || fs::exists(tiles::coarse_folder_name(output), ec);
+}
+
 // The run's folder goes when the run is done; when the run fails, only if this run made it
 // and it holds nothing to resume (or the run cannot be continued, or keeps nothing). An
 // interrupted run's folder that a resume found stays whatever happens before its end. A
@@ -40,11 +47,13 @@ struct RunFilesGuard {
   bool keep = false;
   bool done = false;
   fs::path partial;  // set while a run that keeps nothing may leave one
+  fs::path coarse;   // the output whose coarse level's folder such a run may leave
   ~RunFilesGuard() {
     std::error_code ec;
     if (!partial.empty() && !done) fs::remove(partial, ec);
+    if (!coarse.empty() && !done) tiles::remove_coarse_folder(coarse);
     if (folder.empty() || (existed && !done)) return;
-    if (done || !keep || !fs::exists(folder / "run.h5.partial", ec)) remove_run_folder(folder);
+    if (done || !keep || !has_run(folder / "run.h5")) remove_run_folder(folder);
   }
 };
 
@@ -175,7 +184,7 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
     work = run_folder_of(output_path);
     work_lock = open_run_folder(work, ooc.resume, work_existed);
   }
-  RunFilesGuard guard{.folder = work, .existed = work_existed, .keep = false, .done = false, .partial = {}};
+  RunFilesGuard guard{.folder = work, .existed = work_existed, .keep = false, .done = false, .partial = {}, .coarse = {}};
   fs::path run_input = input;
   fs::path imported;
   if (!container_in || retile) {
@@ -198,6 +207,7 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
   std::error_code ec;
   if (!run.keep_interrupted && !fs::exists(tiles::partial_name(run_output), ec))
     guard.partial = tiles::partial_name(run_output);
+  if (!run.keep_interrupted && !fs::exists(tiles::coarse_folder_name(run_output), ec)) guard.coarse = run_output;
 
   // The attributes (a pass over every tile at the end) only where the output takes them, as
   // in core: the input's normal columns (refreshed), --attributes, colours. A container
@@ -229,13 +239,13 @@ OutOfCoreFileSmoothResult smooth_out_of_core_file(const OutOfCoreFileSmooth& run
                        tiles::size_text(tiles::budget_to_name(budget->needed)) + " or more" +
                        (work_existed ? " (the interrupted run stays in " + work.filename().string() + ")" : ""));
     }
-    if (budget == nullptr || kept_in.empty() || !fs::exists(tiles::partial_name(run_output), ec)) throw;
+    if (budget == nullptr || kept_in.empty() || !has_run(run_output)) throw;
     throw ParamError(std::string(e.what()) + " (the run so far is kept in " + kept_in +
                      ": add --resume with a larger --memory-budget to continue it, or remove it)");
   } catch (const io::IoError& e) {
     // A failed read or write (a full disk, a disk that fails to sync): a container run keeps
     // the steps committed before it in its partial file, and says so.
-    if (kept_in.empty() || !fs::exists(tiles::partial_name(run_output), ec)) throw;
+    if (kept_in.empty() || !has_run(run_output)) throw;
     throw io::IoError(std::string(e.what()) + " (the steps committed so far are kept in " + kept_in +
                       ": once the cause is fixed, run the same command with --resume to continue)");
   }

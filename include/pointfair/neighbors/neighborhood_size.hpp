@@ -62,6 +62,10 @@ struct NoiseEstimate {
   double spacing = 0.0;
 };
 NoiseEstimate estimate_noise(std::span<const Vec3> points);
+/// The estimate from its samples' noise ratios (noise_ratio; NaN where not usable) and squared
+/// distances to their nearest other point: cloud_noise_ratio of the ratios, the square root
+/// of the distances' median (0 when it is not finite). The out-of-core run gathers the same.
+NoiseEstimate noise_estimate_of(std::span<const double> ratios, std::vector<double> nearest_d2);
 
 /// The automatic k of a cloud: k_for_noise_ratio of estimate_noise(points).ratio.
 /// Deterministic: the same for any thread count, and the tiled smoother measures the same

@@ -185,6 +185,13 @@ struct OutOfCoreReport {
 /// Name of the working file of a run writing `output`: "<output>.partial".
 std::filesystem::path partial_name(const std::filesystem::path& output);
 
+/// The work folder of the coarse level (SmoothParams::coarse) of a run writing `output`:
+/// "<output>.partial.coarse", kept with the partial file for a resume.
+std::filesystem::path coarse_folder_name(const std::filesystem::path& output);
+/// Removes the files a run makes in that folder, and the folder when it is then empty. Never
+/// throws.
+void remove_coarse_folder(const std::filesystem::path& output);
+
 /// Runs `params` on the container `input` (never modified) and writes a container with the
 /// run to `output`: first into partial_name(output), renamed to `output` when finished.
 /// Throws ParamError (bad parameters; a tile that does not fit in the budget; a partial run

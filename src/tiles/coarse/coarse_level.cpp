@@ -28,8 +28,6 @@ constexpr const char* kKey = "coarse_key";
 constexpr const char* kFolderNames[] = {"sample.h5", "sample.h5.tmp", "coarse.h5", "coarse.h5.partial",
                                         "coarse.h5.partial.coarse", "start.h5", "start.h5.tmp"};
 
-fs::path folder_of(const fs::path& output) { return fs::path(partial_name(output).string() + ".coarse"); }
-
 // Everything the folder's files depend on: every parameter and the input's bytes.
 std::string stage_key(const fs::path& input, const SmoothParams& params) {
   std::ostringstream s;
@@ -73,6 +71,18 @@ void remove_folder(const fs::path& folder) {
   }
   fs::remove(folder, ec);  // only when empty
 }
+
+}  // namespace
+
+}  // namespace coarse
+
+std::filesystem::path coarse_folder_name(const std::filesystem::path& output) { return std::filesystem::path(partial_name(output).string() + ".coarse"); }
+
+void remove_coarse_folder(const std::filesystem::path& output) { coarse::remove_folder(coarse_folder_name(output)); }
+
+namespace coarse {
+
+namespace {
 
 // A stage's file: made (as `name`.tmp, renamed when complete) unless there, and checked
 // against `key` when there.
@@ -166,7 +176,7 @@ OutOfCoreReport smooth_with_coarse_level(const fs::path& input, const fs::path& 
     };
   };
 
-  const fs::path folder = folder_of(output);
+  const fs::path folder = coarse_folder_name(output);
   std::unique_ptr<io::FolderLock> lock;
   std::uint64_t coarse_points = 0;
   std::string key;  // rank 0's

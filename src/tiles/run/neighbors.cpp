@@ -208,13 +208,7 @@ void Run::open_step0_positions() {
     if (start.offsets != tiles_.offsets)
       file().fail(layout::tile_offsets, "the start positions' tiles are not those of " + input_path_.string());
     tiles_.bounds = start.bounds;
-    constexpr double inf = std::numeric_limits<double>::infinity();
-    global_bounds_ = {inf, inf, inf, -inf, -inf, -inf};
-    for (const Box& b : tiles_.bounds)
-      for (std::size_t c = 0; c < 3; ++c) {
-        global_bounds_[c] = std::min(global_bounds_[c], b[c]);
-        global_bounds_[c + 3] = std::max(global_bounds_[c + 3], b[c + 3]);
-      }
+    bound_all_tiles();
   }
 }
 
@@ -254,12 +248,7 @@ NoiseEstimate Run::noise_tiled() {
   ranks_->max(nearest_d2);
   for (double& g : ratios)
     if (g < 0.0) g = std::numeric_limits<double>::quiet_NaN();
-  NoiseEstimate estimate;
-  estimate.ratio = cloud_noise_ratio(ratios);
-  const auto middle = nearest_d2.begin() + static_cast<std::ptrdiff_t>(samples / 2);
-  std::nth_element(nearest_d2.begin(), middle, nearest_d2.end());
-  estimate.spacing = std::isfinite(*middle) ? std::sqrt(*middle) : 0.0;
-  return estimate;
+  return noise_estimate_of(ratios, std::move(nearest_d2));
 }
 
 void Run::build_neighbors(int step) {

@@ -216,6 +216,8 @@ class Run {
 
  private:
   void read_input_tables();
+  // global_bounds_: the box of every tile's bounds.
+  void bound_all_tiles();
   void open_or_create();
   void create(const fs::path& partial, const std::string& digest);
   void share();
