@@ -266,18 +266,16 @@ namespace {
 SmoothReport flow_with_levels(std::vector<Vec3>& positions, SmoothParams params, const SmoothOptions& options,
                               std::vector<CoarseLevelReport>& levels);
 
-// One coarse level under `positions`, if their noise is heavy enough (CoarseLevelParams::
-// min_noise_ratio) and the coarse sample large enough: the sample smoothed (with coarse levels
-// of its own, recursively) and every point moved by the displacement around it. False when
-// there was none.
-bool run_coarse_level(std::vector<Vec3>& positions, const SmoothParams& params, const SmoothOptions& options,
-                      std::vector<CoarseLevelReport>& levels) {
+// One coarse level under `positions` (whose noise is `noise`), if their noise is heavy enough
+// (CoarseLevelParams::min_noise_ratio) and the coarse sample large enough: the sample smoothed
+// (with coarse levels of its own, recursively) and every point moved by the displacement
+// around it. False when there was none.
+bool run_coarse_level(std::vector<Vec3>& positions, const SmoothParams& params, const NoiseEstimate& noise,
+                      const SmoothOptions& options, std::vector<CoarseLevelReport>& levels) {
   const CoarseLevelParams& c = *params.coarse;
   // The noise estimate of a coarse sample does not fall as its spacing grows (the surface's
   // own curvature reads as noise at that scale): only the input's is tested, and the depth is
   // CoarseLevelParams::levels.
-  if (static_cast<int>(levels.size()) >= c.levels) return false;
-  const NoiseEstimate noise = estimate_noise(positions);
   if (levels.empty() && !(noise.ratio >= c.min_noise_ratio)) return false;
   // Every ratio-th point in Morton order within cells of cell_spacings sample spacings: a
   // sample as even as the cloud, in the input's order.
@@ -323,8 +321,12 @@ bool run_coarse_level(std::vector<Vec3>& positions, const SmoothParams& params, 
 SmoothReport flow_with_levels(std::vector<Vec3>& positions, SmoothParams params, const SmoothOptions& options,
                               std::vector<CoarseLevelReport>& levels) {
   const int requested_k = params.neighbors.k;
-  params = resolve_k(params, positions);
-  if (params.coarse && run_coarse_level(positions, params, options, levels)) {
+  // One noise estimate for the automatic k and the coarse level.
+  const bool coarsen = params.coarse && static_cast<int>(levels.size()) < params.coarse->levels;
+  NoiseEstimate noise;
+  if (coarsen || params.neighbors.k == 0) noise = estimate_noise(positions);
+  if (params.neighbors.k == 0) params.neighbors.k = k_for_noise_ratio(noise.ratio);
+  if (coarsen && run_coarse_level(positions, params, noise, options, levels)) {
     // Every point then takes fine_steps steps, on neighbourhoods of the positions the coarse
     // level left (the automatic k measured on them when it was automatic).
     params.steps = params.coarse->fine_steps;
