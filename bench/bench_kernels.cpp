@@ -7,6 +7,7 @@
 
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/finish/quadric_projection.hpp"
+#include "pointfair/flow/coarse_moves.hpp"
 #include "pointfair/frames/robust_frame.hpp"
 #include "pointfair/flow/euler_step.hpp"
 #include "pointfair/neighbors/kd_tree.hpp"
@@ -142,6 +143,24 @@ void BM_QuadricFinish(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * state.range(0));
 }
 
+// The coarse level's moves carried to every point (add_coarse_moves, 8 nearest): every second
+// point of the noisy cube an anchor, moved halfway to the cube's surface.
+void BM_CoarseMoves(benchmark::State& state) {
+  const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
+  std::vector<Vec3> anchors, moved;
+  for (std::size_t i = 0; i < points.size(); i += 2) {
+    anchors.push_back(points[i]);
+    moved.push_back(0.5 * points[i]);
+  }
+  const MortonGrid grid = morton_grid(points);
+  for (auto _ : state) {
+    std::vector<Vec3> positions = points;
+    benchmark::DoNotOptimize(add_coarse_moves(positions, anchors, moved, 8, grid));
+    benchmark::DoNotOptimize(positions.data());
+  }
+  state.SetItemsProcessed(state.iterations() * state.range(0));
+}
+
 // One step of `params` at k over the noisy cube.
 void step_benchmark(benchmark::State& state, const FlowParams& params, int k) {
   const auto points = noisy_cube(static_cast<std::size_t>(state.range(0)));
@@ -197,5 +216,6 @@ BENCHMARK(BM_DefaultStepRobustEverywhere)->RangeMultiplier(4)->Range(10'000, 1'0
 BENCHMARK(BM_DefaultStepGatedK96)->RangeMultiplier(4)->Range(10'000, 1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_RobustPlane)->ArgsProduct({{100'000}, {16, 200}})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_QuadricFinish)->RangeMultiplier(10)->Range(10'000, 1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_CoarseMoves)->RangeMultiplier(10)->Range(100'000, 1'000'000)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 BENCHMARK_MAIN();
