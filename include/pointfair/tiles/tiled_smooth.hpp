@@ -26,6 +26,11 @@
 //   in core (the last pass places the input points along the normals: SmoothParams::
 //   placement) and each pass is committed like a step. A pass reads, computes and writes one
 //   tile after the other (no pipeline: the fits, not the I/O, take its time).
+// - the coarse level (SmoothParams::coarse; src/tiles/coarse/), before all this: each tile
+//   draws the coarse sample of its points with a halo of one sample cell (a cell's points
+//   decide its sample), the sample's own run is a run like this one, each tile moves its
+//   points by the coarse points of a halo grown until every point's nearest are certain, and
+//   this run starts from the moved points (OutOfCoreOptions::start_positions).
 //
 // Each step is a bounded pipeline (pipeline.hpp): tile i+1 and its halo are read while tile
 // i is computed (parallel_for) and tile i-1 written; every HDF5 call stays on the calling
