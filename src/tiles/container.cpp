@@ -1,6 +1,7 @@
 #include "pointfair/tiles/container.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <cctype>
 #include <cmath>
 
@@ -237,6 +238,17 @@ void require_stored(const h5::File& file, const h5::Dataset& d) {
 }
 
 }  // namespace
+
+Box cloud_bounds(const TileTable& tiles) {
+  constexpr double inf = std::numeric_limits<double>::infinity();
+  Box all = {inf, inf, inf, -inf, -inf, -inf};
+  for (const Box& b : tiles.bounds)
+    for (std::size_t c = 0; c < 3; ++c) {
+      all[c] = std::min(all[c], b[c]);
+      all[c + 3] = std::max(all[c + 3], b[c + 3]);
+    }
+  return all;
+}
 
 TileTable read_tile_table(const h5::File& file) {
   if (!file.exists("/") || !file.has_attribute("/", "pointfair_format") ||

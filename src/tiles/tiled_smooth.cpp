@@ -26,13 +26,9 @@ OutOfCoreReport smooth_out_of_core(const fs::path& input, const fs::path& output
   // As in core, neighbourhoods from a reference cloud leave out the coarse level.
   if (params.coarse && options.neighbor_reference.empty())
     return coarse::smooth_with_coarse_level(input, output, params, options, false);
-  if (params.coarse) {
-    SmoothParams without = params;
-    without.coarse.reset();
-    return detail::Run(input, output, without, options).run();
-  }
-  detail::Run run(input, output, params, options);
-  return run.run();
+  SmoothParams without = params;
+  without.coarse.reset();
+  return detail::Run(input, output, without, options).run();
 }
 
 }  // namespace pointfair::tiles

@@ -74,6 +74,10 @@ struct TileTable {
   std::uint64_t rows(std::size_t t) const { return offsets[t + 1] - offsets[t]; }
 };
 
+/// The bounds of every point of the table's tiles (the box of their bounds; empty tiles add
+/// nothing).
+Box cloud_bounds(const TileTable& tiles);
+
 /// Checks the format marker and reads the tile table. Throws IoError for a file that is not
 /// a pointfair container or whose tile table is inconsistent.
 TileTable read_tile_table(const h5::File& file);

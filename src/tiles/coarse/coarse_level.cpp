@@ -133,7 +133,7 @@ std::uint64_t point_count_of(const fs::path& file) { return point_count(h5::File
 
 int steps_of_finished_run(const fs::path& file) {
   const auto state = h5::File::open(file, false).dataset(layout::run_state).read_all<std::int64_t>();
-  return static_cast<int>(state[2]);
+  return static_cast<int>(state[detail::kCompletedSteps]);
 }
 
 }  // namespace
@@ -158,16 +158,7 @@ OutOfCoreReport smooth_with_coarse_level(const fs::path& input, const fs::path& 
     const h5::File in = h5::File::open(input, false);
     tiles = read_tile_table(in);
   }
-  Box all{};
-  for (std::size_t c3 = 0; c3 < 3; ++c3) {
-    all[c3] = std::numeric_limits<double>::infinity();
-    all[c3 + 3] = -std::numeric_limits<double>::infinity();
-  }
-  for (const Box& b : tiles.bounds)
-    for (std::size_t c3 = 0; c3 < 3; ++c3) {
-      all[c3] = std::min(all[c3], b[c3]);
-      all[c3 + 3] = std::max(all[c3 + 3], b[c3 + 3]);
-    }
+  const Box all = cloud_bounds(tiles);
   const MortonGrid grid = morton_grid(Vec3(all[0], all[1], all[2]), Vec3(all[3], all[4], all[5]));
   const CoarseCells cells = coarse_cells(grid, c.cell_spacings * noise.spacing);
   const auto stage_progress = [&](const char* phase) {

@@ -27,12 +27,11 @@ void write_moved_points(const fs::path& input, const fs::path& sample, const fs:
   h5::File out = create_container(output, n, tiles, input.filename().string());
   h5::Dataset out_positions = out.dataset(layout::positions), out_index = out.dataset(layout::original_index);
   const h5::Dataset in_positions = in.dataset(layout::positions), in_index = in.dataset(layout::original_index);
-  std::vector<Box> bounds(tiles.size(), tiles.bounds.empty() ? Box{} : tiles.bounds[0]);
+  std::vector<Box> bounds = tiles.bounds;  // the moved points' (an empty tile's stay)
   std::vector<Vec3> points, result;
   std::vector<std::uint64_t> index;
   for (std::size_t t = 0; t < tiles.size(); ++t) {
     const std::uint64_t rows = tiles.rows(t);
-    bounds[t] = tiles.bounds[t];
     if (rows == 0) continue;
     points.resize(rows);
     in_positions.read_rows(tiles.offsets[t], rows, points.data()->data());

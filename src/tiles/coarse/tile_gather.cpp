@@ -19,11 +19,9 @@ std::uint64_t Gathered::bytes() const {
 }
 
 bool holds_all(const TileTable& tiles, const Box& box, double halo) {
-  for (std::size_t t = 0; t < tiles.size(); ++t) {
-    if (tiles.rows(t) == 0) continue;
-    for (std::size_t c = 0; c < 3; ++c)
-      if (tiles.bounds[t][c] < box[c] - halo || tiles.bounds[t][c + 3] > box[c + 3] + halo) return false;
-  }
+  const Box all = cloud_bounds(tiles);
+  for (std::size_t c = 0; c < 3; ++c)
+    if (all[c] < box[c] - halo || all[c + 3] > box[c + 3] + halo) return false;
   return true;
 }
 

@@ -208,7 +208,7 @@ void Run::open_step0_positions() {
     if (start.offsets != tiles_.offsets)
       file().fail(layout::tile_offsets, "the start positions' tiles are not those of " + input_path_.string());
     tiles_.bounds = start.bounds;
-    bound_all_tiles();
+    global_bounds_ = cloud_bounds(tiles_);
   }
 }
 

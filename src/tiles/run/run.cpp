@@ -222,17 +222,7 @@ void Run::read_input_tables() {
   }
   require(n_ < std::numeric_limits<Index>::max(), "a run holds fewer than 2^32-1 points");
   for (std::size_t t = 0; t < tiles_.size(); ++t) max_tile_rows_ = std::max(max_tile_rows_, tiles_.rows(t));
-  bound_all_tiles();
-}
-
-void Run::bound_all_tiles() {
-  constexpr double inf = std::numeric_limits<double>::infinity();
-  global_bounds_ = {inf, inf, inf, -inf, -inf, -inf};
-  for (const Box& b : tiles_.bounds)
-    for (std::size_t c = 0; c < 3; ++c) {
-      global_bounds_[c] = std::min(global_bounds_[c], b[c]);
-      global_bounds_[c + 3] = std::max(global_bounds_[c + 3], b[c + 3]);
-    }
+  global_bounds_ = cloud_bounds(tiles_);
 }
 
 namespace {

@@ -216,8 +216,6 @@ class Run {
 
  private:
   void read_input_tables();
-  // global_bounds_: the box of every tile's bounds.
-  void bound_all_tiles();
   void open_or_create();
   void create(const fs::path& partial, const std::string& digest);
   void share();
@@ -245,7 +243,7 @@ class Run {
   // measure_noise() on the open file_ (the input, or the start positions' container).
   NoiseEstimate noise_tiled();
   // The tile table and bounds of the positions step 0 starts from (the input's, or
-  // OutOfCoreOptions::start_positions'), with the input's file open as file_.
+  // OutOfCoreOptions::start_positions'), with that file open as file_.
   void open_step0_positions();
   // OutOfCoreOptions::start_positions copied into kStartPositions (this rank's rows).
   void load_start();
