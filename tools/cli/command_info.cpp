@@ -15,6 +15,7 @@
 #include "json_writer.hpp"
 #include "number_text.hpp"
 #include "out_of_core.hpp"
+#include "run_support.hpp"
 #include "pointfair/common/parallel.hpp"
 #include "pointfair/common/version.hpp"
 #include "pointfair/io/file_lock.hpp"
@@ -225,10 +226,10 @@ void print_file(const fs::path& file, const FileSummary& s, const DefaultsEstima
               format_number(d->eps).c_str(), finish.passes, finish.passes == 1 ? "" : "es", finish.k, passes.c_str());
   // Where the flow needs many steps even with momentum (docs/coarse-level.md).
   if (coarse)
-    std::printf("  coarse     noise of %s spacings or more: the defaults run the flow on every %s point "
-                "first (--no-coarse-level leaves it out)\n",
+    std::printf("  coarse     noise of %s spacings or more: the defaults run the flow on %s first "
+                "(--no-coarse-level leaves it out)\n",
                 format_number(CoarseLevelParams{}.min_noise_ratio).c_str(),
-                CoarseLevelParams{}.ratio == 2 ? "second" : (std::to_string(CoarseLevelParams{}.ratio) + "th").c_str());
+                coarse_sample_text(CoarseLevelParams{}.ratio).c_str());
 }
 
 }  // namespace

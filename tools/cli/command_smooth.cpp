@@ -89,7 +89,9 @@ int run_smooth(const Args& args) {
     throw_if_interrupted();  // unwinds out of smooth(): nothing has been written yet
     if (stage == SmoothStage::CoarseSteps) {
       if (!coarse_progress)
-        coarse_progress.emplace("smooth: coarse level (the flow on every second point first), step", !output.quiet);
+        coarse_progress.emplace("smooth: coarse level (the flow on " + coarse_sample_text(params.coarse->ratio) +
+                                    " first), step",
+                                !output.quiet);
       coarse_progress->update(static_cast<long long>(done), static_cast<long long>(total));
     } else if (stage == SmoothStage::Steps) {
       if (!steps_progress) {

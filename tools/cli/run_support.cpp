@@ -203,6 +203,13 @@ JsonObject finish_json(const SmoothParams& p, int passes_run) {
   return j;
 }
 
+std::string coarse_sample_text(int ratio) {
+  if (ratio == 2) return "every second point";
+  const int last = ratio % 10;
+  const char* suffix = ratio % 100 / 10 == 1 ? "th" : last == 1 ? "st" : last == 2 ? "nd" : last == 3 ? "rd" : "th";
+  return "every " + std::to_string(ratio) + suffix + " point";
+}
+
 std::string coarse_level_text(const std::vector<CoarseLevelReport>& levels) {
   std::string text;
   for (const CoarseLevelReport& level : levels)

@@ -85,6 +85,9 @@ JsonObject& add_parameter(JsonObject& j, std::string_view name, const ParameterV
 JsonObject finish_json(const SmoothParams& params, int passes_run);
 
 /// The coarse level's parameters (SmoothParams::coarse) and the levels that ran.
+/// "every second point", "every 3rd point", ...: the coarse sample of CoarseLevelParams::ratio.
+std::string coarse_sample_text(int ratio);
+
 /// " after a coarse level on N points (S steps)" for each coarse level that ran, coarsest
 /// last; empty when none ran. For the runs' one-line summaries.
 std::string coarse_level_text(const std::vector<CoarseLevelReport>& levels);
